@@ -1,0 +1,117 @@
+"""Q5: bundle adjustment of camera 2 and the points, rotation parameterised by a Rodrigues vector."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.optimize
+import scipy.sparse
+
+from starter import invRodrigues, rodrigues
+from starter.validate import as_matrix, as_points, same_length
+
+__all__ = ["rodriguesResidual", "bundleAdjustment"]
+
+
+def _project(C, w):
+    h = w @ C[:, :3].T + C[:, 3]
+    return h[:, :2] / h[:, 2:]
+
+
+def rodriguesResidual(K1, M1, p1, K2, p2, x):
+    """Reprojection residuals of the points and camera 2 packed in ``x``.
+
+    Parameters
+    ----------
+    K1, K2 : (3, 3) intrinsics.  M1 : (3, 4) camera 1's [R | t] (held fixed).
+    p1, p2 : (N, 2) observed pixels (x, y) in image 1 and image 2.
+    x : (3N + 6,) = [w.ravel() (N points, x y z each), r2 (3,) Rodrigues vector of camera 2's
+        rotation, t2 (3,) its translation]; camera 2 is M2 = [rodrigues(r2) | t2].
+
+    Returns
+    -------
+    residuals : (4N,) = [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()]: its squared norm is the
+        total reprojection error of ``triangulate``.
+    """
+    p1 = as_points(p1, "p1")
+    p2 = as_points(p2, "p2")
+    n = same_length(p1=p1, p2=p2)
+    x = np.asarray(x, dtype=float).ravel()
+    if x.size != 3 * n + 6:
+        raise ValueError(f"x: expected 3N + 6 = {3 * n + 6} values for N = {n} points, got {x.size}")
+    C1 = as_matrix(K1, "K1", (3, 3)) @ as_matrix(M1, "M1", (3, 4))
+    return _residuals(C1, as_matrix(K2, "K2", (3, 3)), p1, p2, x)
+
+
+def _residuals(C1, K2, p1, p2, x):
+    # rodriguesResidual without the input checks, for the optimiser's many calls.
+    n = len(p1)
+    w = x[:3 * n].reshape(n, 3)
+    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), x[3 * n + 3:, None]])
+    return np.concatenate([(p1 - _project(C1, w)).ravel(), (p2 - _project(K2 @ M2, w)).ravel()])
+
+
+def _jacobian_pattern(n):
+    # Point i moves only its own 4 residuals; camera 2 moves only the image-2 residuals.
+    rows, cols = [], []
+    for img in (0, 1):
+        for k in (0, 1):
+            r = 2 * n * img + 2 * np.arange(n) + k
+            for j in range(3):
+                rows.append(r)
+                cols.append(3 * np.arange(n) + j)
+            if img == 1:
+                for j in range(6):
+                    rows.append(r)
+                    cols.append(np.full(n, 3 * n + j))
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    return scipy.sparse.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(4 * n, 3 * n + 6)).tocsr()
+
+
+def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
+    """Jointly refine camera 2's extrinsics and the 3D points to minimise the reprojection error.
+
+    Parameters
+    ----------
+    K1, K2 : (3, 3) intrinsics.  M1 : (3, 4) camera 1's [R | t], held fixed.
+    p1, p2 : (N, 2) observed pixels (x, y) in image 1 and image 2 (RANSAC inliers).
+    M2_init : (3, 4) initial [R | t] of camera 2 (from findM2), world -> camera 2.
+    w_init : (N, 3) initial world points.
+
+    Returns
+    -------
+    M2 : (3, 4) refined [R | t];  w : (N, 3) refined points;
+    o1, o2 : total squared reprojection error (pixels^2) before and after.
+
+    Solved with scipy.optimize.least_squares (trust region, sparse Jacobian pattern): the
+    residuals of a point depend on that point and camera 2 only.  The scale of the scene is
+    free (points and t can shrink together), so |t2| is held at its initial value.
+    """
+    K1 = as_matrix(K1, "K1", (3, 3))
+    K2 = as_matrix(K2, "K2", (3, 3))
+    M1 = as_matrix(M1, "M1", (3, 4))
+    M2_init = as_matrix(M2_init, "M2_init", (3, 4))
+    p1 = as_points(p1, "p1")
+    p2 = as_points(p2, "p2")
+    w_init = as_points(w_init, "w_init", dims=3)
+    n = same_length(p1=p1, p2=p2, w_init=w_init)
+    t0 = M2_init[:, 3]
+    scale = np.linalg.norm(t0)
+    if scale == 0:
+        raise ValueError("M2_init: the translation is zero, so the two cameras coincide and depth is undetermined")
+    x0 = np.concatenate([w_init.ravel(), invRodrigues(M2_init[:, :3]), t0])
+    C1 = K1 @ M1
+
+    def fun(x):
+        # The gauge: t enters only through its direction, its length stays |t0|.
+        y = x.copy()
+        y[-3:] *= scale / np.linalg.norm(x[-3:])
+        return _residuals(C1, K2, p1, p2, y)
+
+    o1 = float(np.sum(fun(x0) ** 2))
+    res = scipy.optimize.least_squares(fun, x0, jac_sparsity=_jacobian_pattern(n), method="trf")
+    x = res.x
+    t = x[-3:] * scale / np.linalg.norm(x[-3:])
+    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), t[:, None]])
+    w = x[:3 * n].reshape(n, 3)
+    o2 = float(np.sum(fun(x) ** 2))
+    return M2, w, o1, o2

@@ -1,0 +1,18 @@
+"""Helpers given to students (the handout's helper functions) and data loading.
+
+Students import from here; it holds no answer to any question.
+"""
+
+from .data import CarFrame, TempleData, car_times, data_root, load_car_frame, load_image, load_temple
+from .epipolar import epipolar_distances, refineF
+from .pose import camera2
+from .ransac import ransacF
+from .rotations import invRodrigues, rodrigues
+from .skeleton import CAR_KEYPOINTS, CAR_SKELETON
+from .validate import DegenerateInputError
+
+__all__ = [
+    "refineF", "camera2", "ransacF", "rodrigues", "invRodrigues", "epipolar_distances",
+    "load_temple", "load_car_frame", "car_times", "load_image", "data_root", "TempleData", "CarFrame",
+    "CAR_KEYPOINTS", "CAR_SKELETON", "DegenerateInputError",
+]

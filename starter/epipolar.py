@@ -1,0 +1,95 @@
+"""Epipolar geometry helpers given to students: distances to epipolar lines and ``refineF``.
+
+Conventions: points are pixels (x, y) = (column, row), arrays of shape (N, 2); F (3x3) maps a
+point x1 of image 1 to the line l2 = F x1 in image 2, so that x2^T F x1 = 0 for a true match.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.optimize
+
+from .validate import as_matrix, as_points, same_length
+
+__all__ = ["homogeneous", "enforce_rank2", "epipolar_distances", "symmetric_epipolar_cost", "refineF"]
+
+
+def homogeneous(pts: np.ndarray) -> np.ndarray:
+    """(N, 2) pixels -> (N, 3) homogeneous points with a last coordinate of 1."""
+    return np.hstack([pts, np.ones((len(pts), 1))])
+
+
+def enforce_rank2(F: np.ndarray) -> np.ndarray:
+    """The rank-2 matrix closest to F (3x3) in Frobenius norm: its smallest singular value set to 0."""
+    U, S, Vt = np.linalg.svd(F)
+    S[2] = 0.0
+    return (U * S) @ Vt
+
+
+def epipolar_distances(F, pts1, pts2) -> np.ndarray:
+    """Distance in pixels (N,) of each x2 to its epipolar line F x1 in image 2.
+
+    Parameters
+    ----------
+    F : (3, 3) fundamental matrix, x2^T F x1 = 0.
+    pts1, pts2 : (N, 2) pixels (x, y) of matched points in image 1 and image 2.
+    """
+    F = as_matrix(F, "F", (3, 3))
+    p1 = as_points(pts1, "pts1")
+    p2 = as_points(pts2, "pts2")
+    same_length(pts1=p1, pts2=p2)
+    lines = homogeneous(p1) @ F.T
+    norm = np.hypot(lines[:, 0], lines[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = np.abs(np.sum(lines * homogeneous(p2), axis=1)) / norm
+    return np.where(norm > 0, d, np.inf)
+
+
+def symmetric_epipolar_cost(F: np.ndarray, h1: np.ndarray, h2: np.ndarray) -> float:
+    """Sum over points of the squared distances of x2 to F x1 plus of x1 to F^T x2.
+
+    h1, h2: (N, 3) homogeneous points.  This is the geometric cost ``refineF`` minimises.
+    """
+    l2 = h1 @ F.T
+    l1 = h2 @ F
+    r = np.sum(h2 * l2, axis=1) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cost = r * (1.0 / (l2[:, 0] ** 2 + l2[:, 1] ** 2) + 1.0 / (l1[:, 0] ** 2 + l1[:, 1] ** 2))
+    total = float(np.sum(cost))
+    return total if np.isfinite(total) else np.inf
+
+
+def refineF(F, pts1, pts2) -> np.ndarray:
+    """Locally refine a fundamental matrix; return the rank-2 result (3x3).
+
+    Starting from ``F``, Powell's method (scipy.optimize.minimize) minimises the symmetric
+    epipolar distance of the matches, rank 2 being enforced inside the cost.  Call it from
+    ``eightpoint`` *before* unscaling, with the points divided by M: the cost is then well
+    conditioned.  It improves a good F; it does not rescue a wrong one.
+
+    Parameters
+    ----------
+    F : (3, 3) initial fundamental matrix (x2^T F x1 = 0) in the coordinates of pts1/pts2.
+    pts1, pts2 : (N, 2) matched points (x, y) in those same coordinates, N >= 8.
+
+    Returns
+    -------
+    (3, 3) rank-2 fundamental matrix in the same coordinates, scaled to unit Frobenius norm.
+    """
+    F = as_matrix(F, "F", (3, 3))
+    p1 = as_points(pts1, "pts1", min_count=8)
+    p2 = as_points(pts2, "pts2", min_count=8)
+    same_length(pts1=p1, pts2=p2)
+    h1, h2 = homogeneous(p1), homogeneous(p2)
+    scale = np.linalg.norm(F)
+    if scale == 0:
+        raise ValueError("F: expected a non-zero matrix, got all zeros")
+
+    def cost(f):
+        return symmetric_epipolar_cost(enforce_rank2(f.reshape(3, 3)), h1, h2)
+
+    # Powell needs no gradient, and the cost is flat along F's scale: that is harmless to it.
+    res = scipy.optimize.minimize(cost, (F / scale).ravel(), method="Powell",
+                                  options={"maxiter": 100000, "maxfev": 10000, "xtol": 1e-4, "ftol": 1e-4})
+    out = enforce_rank2(res.x.reshape(3, 3))
+    return out / np.linalg.norm(out)
