@@ -50,8 +50,8 @@ def _residuals(C1, K2, p1, p2, x):
     return np.concatenate([(p1 - _project(C1, w)).ravel(), (p2 - _project(K2 @ M2, w)).ravel()])
 
 
-def _jacobian_pattern(n):
-    # Point i moves only its own 4 residuals; camera 2 moves only the image-2 residuals.
+def _jacobian_pattern(n, n_camera):
+    # Point i moves only its own 4 residuals; the camera parameters move only the image-2 ones.
     rows, cols = [], []
     for img in (0, 1):
         for k in (0, 1):
@@ -60,11 +60,11 @@ def _jacobian_pattern(n):
                 rows.append(r)
                 cols.append(3 * np.arange(n) + j)
             if img == 1:
-                for j in range(6):
+                for j in range(n_camera):
                     rows.append(r)
                     cols.append(np.full(n, 3 * n + j))
     rows, cols = np.concatenate(rows), np.concatenate(cols)
-    return scipy.sparse.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(4 * n, 3 * n + 6)).tocsr()
+    return scipy.sparse.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(4 * n, 3 * n + n_camera)).tocsr()
 
 
 def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
@@ -98,20 +98,26 @@ def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
     scale = np.linalg.norm(t0)
     if scale == 0:
         raise ValueError("M2_init: the translation is zero, so the two cameras coincide and depth is undetermined")
-    x0 = np.concatenate([w_init.ravel(), invRodrigues(M2_init[:, :3]), t0])
+    # The gauge: points and t can shrink together without changing any projection, so t moves
+    # on the sphere of radius |t0| only, through two coordinates u of its tangent plane at t0.
+    t_dir = t0 / scale
+    tangent = np.linalg.svd(t_dir[None, :])[2][1:].T          # (3, 2), orthonormal, normal to t0
+
+    def unpack(z):
+        d = t_dir + tangent @ z[-2:]
+        return np.concatenate([z[:-2], scale * d / np.linalg.norm(d)])
+
     C1 = K1 @ M1
+    z0 = np.concatenate([w_init.ravel(), invRodrigues(M2_init[:, :3]), np.zeros(2)])
 
-    def fun(x):
-        # The gauge: t enters only through its direction, its length stays |t0|.
-        y = x.copy()
-        y[-3:] *= scale / np.linalg.norm(x[-3:])
-        return _residuals(C1, K2, p1, p2, y)
+    def fun(z):
+        return _residuals(C1, K2, p1, p2, unpack(z))
 
-    o1 = float(np.sum(fun(x0) ** 2))
-    res = scipy.optimize.least_squares(fun, x0, jac_sparsity=_jacobian_pattern(n), method="trf")
-    x = res.x
-    t = x[-3:] * scale / np.linalg.norm(x[-3:])
-    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), t[:, None]])
+    o1 = float(np.sum(fun(z0) ** 2))
+    res = scipy.optimize.least_squares(fun, z0, jac_sparsity=_jacobian_pattern(n, 5), method="trf",
+                                       x_scale="jac", max_nfev=500)
+    x = unpack(res.x)
+    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), x[3 * n + 3:, None]])
     w = x[:3 * n].reshape(n, 3)
-    o2 = float(np.sum(fun(x) ** 2))
+    o2 = float(np.sum(res.fun ** 2))
     return M2, w, o1, o2

@@ -1,0 +1,57 @@
+"""Shared fixtures: where the official course data is, and the scenes tests reuse."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+
+
+def course_data_dir() -> Path:
+    """../shared/course-data beside the kit, or $HW4_COURSE_DATA."""
+    env = os.environ.get("HW4_COURSE_DATA")
+    return Path(env) if env else KIT_ROOT.parent / "shared" / "course-data"
+
+
+@pytest.fixture(scope="session")
+def course_data() -> Path:
+    path = course_data_dir()
+    if not (path / "temple" / "some_corresp.npz").exists():
+        pytest.skip(f"official course data not found at {path} (set HW4_COURSE_DATA to use it)")
+    return path
+
+
+@pytest.fixture(scope="session")
+def official_temple(course_data):
+    from starter import load_temple
+
+    return load_temple(course_data)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20261121)
+
+
+@pytest.fixture
+def two_view(rng):
+    """A small image-free two-view scene with known answers: K, M2 = [R | t] (|t| = 1), points.
+
+    Returned as a dict: K1, K2 (3x3), M2 (3x4), X (N, 3) world points in camera-1 coordinates
+    in front of both cameras, pts1, pts2 (N, 2) exact pixel projections.
+    """
+    from scenes.cameras import intrinsics, project, rotation_about
+
+    K = intrinsics(800.0, 320.0, 240.0)
+    R = rotation_about(rng.normal(size=3), 0.15)
+    t = rng.normal(size=3)
+    t /= np.linalg.norm(t)
+    M2 = np.hstack([R, t[:, None]])
+    X = np.column_stack([rng.uniform(-1.5, 1.5, 60), rng.uniform(-1, 1, 60), rng.uniform(5, 8, 60)])
+    C1 = K @ np.hstack([np.eye(3), np.zeros((3, 1))])
+    return {"K1": K, "K2": K, "M2": M2, "X": X, "C1": C1, "C2": K @ M2,
+            "pts1": project(C1, X), "pts2": project(K @ M2, X)}
