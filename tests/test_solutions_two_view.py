@@ -81,7 +81,10 @@ def test_bundle_adjustment_lowers_the_error_and_approaches_the_truth(two_view, r
     assert o2 < o1
     # With 0.5 px noise on 240 coordinates, 183 degrees of freedom left: o2 near 0.25 * 57 ... 0.25 * 240.
     assert 0.25 * 40 < o2 < 0.25 * 240
-    assert np.abs(M2b[:, :3] - d["M2"][:, :3]).max() < np.abs(M2[:, :3] - d["M2"][:, :3]).max() + 1e-3
+    # The truth (|t| = 1, like M2) is a feasible point: a real optimum is at least as good.
+    x_true = np.concatenate([d["X"].ravel(), invRodrigues(d["M2"][:, :3]), d["M2"][:, 3]])
+    assert o2 <= np.sum(rodriguesResidual(d["K1"], M1, p1, d["K2"], p2, x_true) ** 2) + 1e-6
+    assert np.abs(M2b[:, :3] - d["M2"][:, :3]).max() < 0.05
     assert np.linalg.norm(M2b[:, 3]) == pytest.approx(1.0)
 
 
