@@ -1,0 +1,325 @@
+"""The grading results: one model, one Gradescope serializer, a failure path, feedback and CSV.
+
+``TestResult`` is one check, ``QuestionResult`` the checks of one manifest question,
+``SubmissionResult`` a whole submission with the sandbox's isolation report.  Every output comes
+from the model through one function each:
+
+- ``SubmissionResult.to_gradescope()``: Gradescope's results.json (top-level score, output,
+  visibility, stdout_visibility, extra_data; tests[] with name, number, score, max_score,
+  status, output, visibility);
+- ``SubmissionResult.failed(reason)``: a valid result worth zero that says why, for when grading
+  itself could not run (unreadable submission, broken sandbox);
+- ``SubmissionResult.feedback_markdown()``: the readable report;
+- ``csv_header()`` / ``SubmissionResult.csv_row()``: one gradebook line per student.
+
+Feedback text passes through ``clean_feedback``, which removes Python tracebacks and bounds the
+length: what a student reads never shows grader frames.  Hidden inputs must not be put in
+feedback by the checks in the first place; checks marked ``visibility="hidden"`` are summarised
+without their names or text in the student's report.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import re
+import tempfile
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from kit.manifest import QUESTIONS, question
+
+__all__ = [
+    "VISIBILITIES",
+    "QuestionResult",
+    "SubmissionResult",
+    "TestResult",
+    "autograded_question_ids",
+    "clean_feedback",
+    "csv_header",
+    "write_csv",
+]
+
+VISIBILITIES = ("visible", "hidden", "after_due_date", "after_published")
+_FEEDBACK_LIMIT = 2000
+_TOL = 1e-9
+
+
+def clean_feedback(text: str, limit: int = _FEEDBACK_LIMIT) -> str:
+    """``text`` without Python traceback frames, bounded to ``limit`` characters.
+
+    A frame is a ``File "...", line N`` line with its indented source line; the
+    ``Traceback (most recent call last):`` header goes too, the final ``Error: message`` stays.
+    """
+    if not isinstance(text, str):
+        raise ValueError(f"text: expected str, got {type(text).__name__}")  # noqa: TRY004 - the kit's rule
+    out: list[str] = []
+    skip_source = False
+    for line in text.splitlines():
+        if line.startswith("Traceback (most recent call last)"):
+            continue
+        if re.match(r'\s*File ".*", line \d+', line):
+            skip_source = True
+            continue
+        if skip_source and line.startswith("    "):
+            continue  # the source line (and carets) printed under a frame
+        skip_source = False
+        out.append(line)
+    cleaned = "\n".join(out).strip()
+    return cleaned if len(cleaned) <= limit else cleaned[:limit] + " [...]"
+
+
+def _check_score(value, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"{name}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class TestResult:
+    """One check of one question.
+
+    name: what was checked ("eightpoint: F maps points to their epipolar lines");
+    score, max_score: points, 0 <= score <= max_score; passed: None means full marks;
+    feedback: text for the student (cleaned of tracebacks, bounded); visibility: Gradescope's.
+    """
+
+    name: str
+    score: float
+    max_score: float
+    passed: bool | None = None
+    feedback: str = ""
+    visibility: str = "visible"
+
+    __test__ = False  # not a pytest test class despite its name
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ValueError(f"name: expected a non-empty str, got {self.name!r}")
+        score = _check_score(self.score, "score")
+        max_score = _check_score(self.max_score, "max_score")
+        if max_score < 0 or score < -_TOL or score > max_score + _TOL:
+            raise ValueError(f"score: expected 0 <= score <= max_score = {max_score}, got {score}")
+        if self.visibility not in VISIBILITIES:
+            raise ValueError(f"visibility: expected one of {VISIBILITIES}, got {self.visibility!r}")
+        object.__setattr__(self, "score", min(max(score, 0.0), max_score))
+        object.__setattr__(self, "max_score", max_score)
+        object.__setattr__(self, "feedback", clean_feedback(self.feedback))
+        if self.passed is None:
+            object.__setattr__(self, "passed", self.score >= self.max_score - _TOL)
+
+    @classmethod
+    def check(cls, name: str, ok: bool, points: float, feedback: str = "", **kw) -> TestResult:
+        """All or nothing: ``points`` when ``ok``, else zero with ``feedback``."""
+        return cls(name, points if ok else 0.0, points, bool(ok), "" if ok else feedback, **kw)
+
+
+@dataclass(frozen=True)
+class QuestionResult:
+    """The checks of one manifest question, with the manifest's title and flags.
+
+    notes: sentences about the question shown above its checks (e.g. "findM2 is not defined").
+    """
+
+    id: str
+    title: str
+    tests: tuple[TestResult, ...] = ()
+    extra_credit: bool = False
+    by_hand: bool = False
+    notes: tuple[str, ...] = ()
+
+    @classmethod
+    def of(cls, qid: str, tests: Iterable[TestResult], notes: Iterable[str] = ()) -> QuestionResult:
+        """A QuestionResult for the manifest question ``qid``; its checks must add up to its points.
+
+        Raises
+        ------
+        ValueError
+            When ``qid`` is unknown, or the checks' max_score total differs from the manifest's
+            points (a grader bug: the question would be graded out of the wrong total).
+        """
+        q = question(qid)
+        tests = tuple(tests)
+        total = sum(t.max_score for t in tests)
+        if not q.by_hand and abs(total - q.points) > 1e-6:
+            raise ValueError(f"tests: expected max_score adding up to {q.points} for {qid}, got {total:g}")
+        return cls(q.id, q.title, tests, q.extra_credit, q.by_hand, tuple(notes))
+
+    @property
+    def score(self) -> float:
+        return sum(t.score for t in self.tests)
+
+    @property
+    def max_score(self) -> float:
+        return sum(t.max_score for t in self.tests)
+
+
+@dataclass(frozen=True)
+class SubmissionResult:
+    """A graded submission.
+
+    questions: in manifest order; student_id: for the gradebook; isolation: the sandbox's
+    ``Isolation.as_dict()``; notes: sentences about the submission as a whole (unreadable
+    notebooks, syntax errors); failure: set when grading could not run (then the score is zero);
+    execution_time: seconds.
+    """
+
+    questions: tuple[QuestionResult, ...] = ()
+    student_id: str | None = None
+    isolation: dict | None = None
+    notes: tuple[str, ...] = ()
+    failure: str | None = None
+    execution_time: float | None = None
+    extra: dict = field(default_factory=dict)
+
+    @classmethod
+    def failed(cls, reason: str, *, student_id: str | None = None, isolation: dict | None = None,
+               execution_time: float | None = None) -> SubmissionResult:
+        """A zero for a submission that could not be graded, with ``reason`` for the student."""
+        if not isinstance(reason, str) or not reason.strip():
+            raise ValueError(f"reason: expected a non-empty str, got {reason!r}")
+        return cls((), student_id, isolation, (), clean_feedback(reason), execution_time)
+
+    @property
+    def score(self) -> float:
+        """Points earned, extra credit included; zero when grading failed."""
+        return 0.0 if self.failure else sum(q.score for q in self.questions)
+
+    @property
+    def max_score(self) -> float:
+        """Points of the autograded questions, extra credit excluded."""
+        return sum(q.max_score for q in self.questions if not q.extra_credit)
+
+    # -- Gradescope -------------------------------------------------------------------------
+
+    def to_gradescope(self) -> dict:
+        """The dict of Gradescope's results.json (all numbers finite, JSON-serialisable)."""
+        out: dict = {
+            "score": round(self.score, 6),
+            "output": self._summary_markdown(),
+            "output_format": "md",
+            "visibility": "visible",
+            "stdout_visibility": "hidden",  # the grader's log is for staff only
+            "tests": [],
+            "extra_data": {"isolation": self.isolation, "failure": self.failure, **self.extra},
+        }
+        if self.execution_time is not None:
+            out["execution_time"] = round(float(self.execution_time), 3)
+        if self.failure:
+            return out
+        for q in self.questions:
+            for k, t in enumerate(q.tests, start=1):
+                text = "\n".join(list(q.notes if k == 1 else ()) + ([t.feedback] if t.feedback else []))
+                out["tests"].append({
+                    "name": f"{q.id} {t.name}" + (" (extra credit)" if q.extra_credit else ""),
+                    "number": f"{q.id[1:]}.{k}",
+                    "score": round(t.score, 6),
+                    "max_score": round(t.max_score, 6),
+                    "status": "passed" if t.passed else "failed",
+                    "output": text,
+                    "visibility": t.visibility,
+                })
+        return out
+
+    def write_gradescope(self, path: str | Path) -> Path:
+        """Write results.json to ``path`` atomically (a reader never sees half a file)."""
+        path = Path(path)
+        text = json.dumps(self.to_gradescope(), indent=2, allow_nan=False)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".results-", suffix=".json")
+        try:
+            with os.fdopen(fd, "w") as fh:
+                fh.write(text)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+    # -- feedback ---------------------------------------------------------------------------
+
+    def _summary_markdown(self) -> str:
+        if self.failure:
+            return (f"**The autograder could not grade this submission**, so it scores 0 for now.\n\n"
+                    f"Reason: {self.failure}\n\nPlease check your files and resubmit, or contact the course staff.")
+        lines = [f"**Autograded total: {_fmt(self.score)} / {_fmt(self.max_score)}**"]
+        if any(q.extra_credit for q in self.questions):
+            extra = sum(q.score for q in self.questions if q.extra_credit)
+            lines[0] += f" (including {_fmt(extra)} extra credit)"
+        if self.notes:
+            lines += ["", "Notes on your files:"] + [f"- {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def feedback_markdown(self, *, audience: str = "student") -> str:
+        """A readable report.  ``audience="student"`` hides the names and texts of hidden checks;
+        ``"staff"`` shows everything plus how the code was isolated."""
+        if audience not in ("student", "staff"):
+            raise ValueError(f"audience: expected 'student' or 'staff', got {audience!r}")
+        title = "# Autograder feedback" + (f" for {self.student_id}" if self.student_id else "")
+        parts = [title, "", self._summary_markdown()]
+        for q in ([] if self.failure else self.questions):
+            head = f"## {q.id} {q.title}: {_fmt(q.score)} / {_fmt(q.max_score)}"
+            parts += ["", head + (" (extra credit)" if q.extra_credit else "")]
+            parts += [f"- {n}" for n in q.notes]
+            shown = [t for t in q.tests if audience == "staff" or t.visibility != "hidden"]
+            hidden = [t for t in q.tests if t not in shown]
+            if shown:
+                parts += ["", "| Check | Score | Result |", "|---|---|---|"]
+                parts += [f"| {_cell(t.name)} | {_fmt(t.score)} / {_fmt(t.max_score)} | "
+                          f"{'passed' if t.passed else 'failed'} |" for t in shown]
+            if hidden:
+                hidden_score = f"{_fmt(sum(t.score for t in hidden))} / {_fmt(sum(t.max_score for t in hidden))}"
+                parts += ["", f"{len(hidden)} hidden check(s): {hidden_score}"]
+            details = [t for t in shown if t.feedback]
+            if details:
+                parts += [""] + [f"- **{_cell(t.name)}**: {t.feedback}" for t in details]
+        if audience == "staff" and self.isolation:
+            iso = self.isolation
+            network = "cut" if iso.get("network_isolated") else "NOT cut"
+            hidden_count = len(iso.get("hidden_paths") or ())
+            line = f"Sandbox: {iso.get('level')}, uid {iso.get('uid')}, network {network}, {hidden_count} hidden paths."
+            parts += ["", "---", line]
+            parts += [f"- {n}" for n in iso.get("notes") or ()]
+        return "\n".join(parts).rstrip() + "\n"
+
+    # -- gradebook --------------------------------------------------------------------------
+
+    def csv_row(self, question_ids: Sequence[str] | None = None) -> list[str]:
+        """``[student_id, total, one score per question]`` in the order of ``csv_header``."""
+        ids = list(question_ids) if question_ids is not None else autograded_question_ids()
+        by_id = {q.id: q for q in self.questions}
+        scores = [0.0 if self.failure or qid not in by_id else by_id[qid].score for qid in ids]
+        return [self.student_id or "", _fmt(self.score)] + [_fmt(s) for s in scores]
+
+
+def autograded_question_ids() -> list[str]:
+    """Ids of the manifest's questions graded by the autograder, in manifest order."""
+    return [q.id for q in QUESTIONS if not q.by_hand]
+
+
+def csv_header(question_ids: Sequence[str] | None = None) -> list[str]:
+    """``["student_id", "total", "Q2", ...]``."""
+    ids = list(question_ids) if question_ids is not None else autograded_question_ids()
+    return ["student_id", "total", *ids]
+
+
+def write_csv(path: str | Path, results: Iterable[SubmissionResult],
+              question_ids: Sequence[str] | None = None) -> Path:
+    """Write one header line and one line per result."""
+    path = Path(path)
+    with open(path, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(csv_header(question_ids))
+        for r in results:
+            writer.writerow(r.csv_row(question_ids))
+    return path
+
+
+def _fmt(x: float) -> str:
+    return f"{round(x, 4):g}"
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")

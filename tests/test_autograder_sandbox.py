@@ -1,0 +1,419 @@
+"""The trust boundary: hostile student code must not change the grader, see secrets or outlive its job.
+
+Each hostile case is a few lines of student source run as one small job; each is bounded to a few
+seconds by its call timeout.  Tests that need a capability of the machine (network namespaces,
+a uid of the sandbox's own) skip with the reason when it is missing.
+"""
+
+from __future__ import annotations
+
+import base64
+import builtins
+import io
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from autograder import child, wire
+from autograder.sandbox import Call, Job, ResourceLimits, Sandbox, _live_pids_of_uid
+from autograder.submission import parse_cells
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
+
+
+@pytest.fixture(scope="module")
+def box():
+    with Sandbox(KIT_ROOT, limits=LIMITS) as sandbox:
+        yield sandbox
+
+
+@pytest.fixture
+def world_readable_dir():
+    """A folder under /tmp that any uid could read or write if nothing hid it."""
+    path = Path(tempfile.mkdtemp(prefix="hw4-visible-"))
+    os.chmod(path, 0o777)
+    yield path
+    shutil.rmtree(path)
+
+
+def run(box, source, *calls, **job_options):
+    return box.run(Job(source, list(calls), **job_options))
+
+
+def no_processes_left(box) -> bool:
+    return box.isolation.uid is None or _live_pids_of_uid(box.isolation.uid) == []
+
+
+# ---------------------------------------------------------------------------------------------
+# normal jobs
+
+
+def test_normal_job_round_trips_exactly(box, rng):
+    src = (
+        "import numpy as np\n"
+        "def compute(a, n, scale=1.0):\n"
+        "    return {'a': a * scale, 'ints': np.arange(n, dtype=np.uint16), 'mask': a > 0,\n"
+        "            'z': np.array([1 + 2j]), 'pair': (float(a.sum()), n), 'nan': float('nan'),\n"
+        "            'list': [np.float32(1.5), 'text', None, True]}\n"
+    )
+    a = rng.normal(size=(4, 3))
+    r = run(box, src, Call("c", "compute", (a, 5), {"scale": 3.0}))
+    out = r["c"]
+    assert out.status == "ok", out.message
+    v = out.value
+    assert v["a"].dtype == np.float64 and np.array_equal(v["a"], a * 3.0)
+    assert v["ints"].dtype == np.uint16 and np.array_equal(v["ints"], np.arange(5))
+    assert v["mask"].dtype == bool and np.array_equal(v["mask"], a > 0)
+    assert v["z"].dtype == np.complex128 and v["z"][0] == 1 + 2j
+    assert v["pair"] == (float(a.sum()), 5) and type(v["pair"]) is tuple
+    assert np.isnan(v["nan"])
+    assert v["list"] == [1.5, "text", None, True]
+    assert r.spawns == 1 and r.isolation is box.isolation
+
+
+def test_student_can_import_numpy_scipy_matplotlib_and_the_kit(box):
+    src = (
+        "import numpy as np\nimport scipy.optimize\nimport matplotlib.pyplot as plt\n"
+        "from starter import validate\nimport scenes.cameras\n"
+        "def f():\n"
+        "    plt.figure(); plt.plot([0, 1]); plt.show()\n"
+        "    return validate.as_points([[1, 2]], 'p').dtype.name, scipy.optimize.brentq(lambda x: x - 2, 0, 5)\n"
+    )
+    r = run(box, src, Call("f", "f"))
+    assert r.load_errors == ()
+    assert r["f"].status == "ok", r["f"].message
+    assert r["f"].value[0] == "float64" and abs(r["f"].value[1] - 2) < 1e-9
+
+
+def test_failing_import_loses_only_that_statement(box):
+    units = parse_cells(["import not_a_module_anywhere\ndef f():\n    return 1\n"],
+                        stem="q2_eightpoint", filename="q2_eightpoint.ipynb").units
+    r = box.run(Job(units, [Call("f", "f")]))
+    assert r["f"].value == 1
+    (origin, message), = r.load_errors
+    assert origin == "q2_eightpoint.ipynb, cell 1" and "ModuleNotFoundError" in message
+
+
+def test_later_definition_is_the_one_called(box):
+    units = parse_cells(["def eightpoint(a, b, M):\n    return 'first'\n", "def eightpoint(a, b, M):\n    return 'second'\n"],
+                        stem="q2_eightpoint", filename="q2.ipynb").units
+    r = box.run(Job(units, [Call("e", "eightpoint", (1, 2, 3))]))
+    assert r["e"].value == "second"
+
+
+def test_exceptions_missing_functions_and_student_line_numbers(box):
+    units = parse_cells(["x = 1\n", "def f(a):\n    y = a + 1\n    raise ValueError('bad input ' + str(y))\n"],
+                        stem="q2_eightpoint", filename="q2.ipynb").units
+    r = box.run(Job(units, [Call("f", "f", (1,)), Call("g", "not_defined")]))
+    assert r["f"].status == "exception"
+    assert r["f"].message == "ValueError: bad input 2 (in f, q2.ipynb, cell 2, line 3)"
+    assert "child.py" not in r["f"].message and "Traceback" not in r["f"].message
+    assert r["g"].status == "missing"
+
+
+# ---------------------------------------------------------------------------------------------
+# hostile code
+
+
+def test_patching_numpy_and_builtins_in_the_child_does_not_reach_the_grader(box):
+    allclose, absolute = np.allclose, builtins.abs
+    src = (
+        "import numpy as np, builtins\n"
+        "def eightpoint(pts1, pts2, M):\n"
+        "    np.allclose = lambda *a, **k: True\n"
+        "    np.array_equal = lambda *a, **k: True\n"
+        "    builtins.abs = lambda x: 0\n"
+        "    return np.zeros((3, 3))\n"
+    )
+    r = run(box, src, Call("e", "eightpoint", (np.zeros((8, 2)), np.zeros((8, 2)), 640)))
+    assert r["e"].status == "ok"
+    assert np.allclose is allclose and builtins.abs is absolute
+    assert not np.allclose(r["e"].value, np.eye(3))
+    assert not np.array_equal(r["e"].value, np.eye(3))
+
+
+def test_object_with_always_true_eq_is_rejected_or_converted(box):
+    src = (
+        "import numpy as np\n"
+        "class Liar:\n"
+        "    def __eq__(self, other): return True\n"
+        "    __hash__ = None\n"
+        "class LiarArray(np.ndarray):\n"
+        "    def __eq__(self, other): return np.ones(self.shape, bool)\n"
+        "def liar(): return Liar()\n"
+        "def liar_array(): return np.zeros(3).view(LiarArray)\n"
+        "def liar_float():\n"
+        "    class F(float):\n"
+        "        def __eq__(self, other): return True\n"
+        "    return F(0.5)\n"
+    )
+    r = run(box, src, Call("a", "liar"), Call("b", "liar_array"), Call("c", "liar_float"))
+    assert r["a"].status == "malformed" and "Liar" in r["a"].message
+    b = r["b"].value
+    assert type(b) is np.ndarray and not np.array_equal(b, np.ones(3))
+    c = r["c"].value
+    assert type(c) is np.ndarray and c.dtype == np.float64 and c != 0.7
+
+
+def test_sys_exit_is_an_exception_and_os_exit_a_crash_of_that_call_only(box):
+    src = "import os, sys\ndef a(): sys.exit(3)\ndef b(): os._exit(0)\ndef c(): return 'alive'\n"
+    r = run(box, src, Call("a", "a"), Call("b", "b"), Call("c", "c"))
+    assert r["a"].status == "exception" and "SystemExit" in r["a"].message
+    assert r["b"].status == "crashed"
+    assert r["c"].value == "alive"
+    assert r.spawns == 2  # restarted once, after the crash
+
+
+def test_infinite_loops_time_out_even_when_the_alarm_is_ignored(box):
+    src = (
+        "import signal\n"
+        "def polite():\n    while True: pass\n"
+        "def stubborn():\n    signal.signal(signal.SIGALRM, signal.SIG_IGN)\n    while True: pass\n"
+        "def fine(): return 1\n"
+    )
+    r = run(box, src, Call("p", "polite", timeout=1), Call("s", "stubborn", timeout=1), Call("f", "fine"))
+    assert r["p"].status == "timeout" and r["s"].status == "timeout"
+    assert r["s"].seconds is not None and r["s"].seconds < 1 + LIMITS.grace + 1.5
+    assert r["f"].value == 1
+
+
+def test_memory_bomb_is_stopped_by_the_limit(box):
+    # 4 GiB: the machine could give it, the 2 GiB limit must not.
+    src = "import numpy as np\ndef bomb():\n    return np.ones(2**29).sum()\n"
+    r = run(box, src, Call("m", "bomb", timeout=5))
+    assert r["m"].status == "exception" and "MemoryError" in r["m"].message
+    assert np.ones(10).sum() == 10  # the grader is fine
+
+
+def test_fork_bomb_is_limited_and_leaves_nothing(box):
+    if box.isolation.uid is None:
+        pytest.skip("the sandbox has no uid of its own here, so the process limit is the grader's")
+    src = "import os\ndef bomb():\n    while True:\n        os.fork()\n"
+    r = run(box, src, Call("b", "bomb", timeout=5))
+    assert r["b"].status == "exception" and "BlockingIOError" in r["b"].message
+    assert no_processes_left(box)
+    assert subprocess.run([sys.executable, "-c", "pass"], check=False).returncode == 0
+
+
+def test_daemon_left_running_is_gone_after_the_job(box):
+    src = (
+        "import os, time\n"
+        "def start():\n"
+        "    if os.fork() == 0:\n"
+        "        os.setsid()\n"
+        "        if os.fork() == 0:\n"
+        "            with open('daemon.pid', 'w') as fh: fh.write(str(os.getpid()))\n"
+        "            time.sleep(60)\n"
+        "        os._exit(0)\n"
+        "    for _ in range(200):\n"
+        "        if os.path.exists('daemon.pid') and open('daemon.pid').read():\n"
+        "            pid = int(open('daemon.pid').read())\n"
+        "            return os.path.exists(f'/proc/{pid}')\n"
+        "        time.sleep(0.01)\n"
+        "    return False\n"
+    )
+    r = run(box, src, Call("d", "start", timeout=5))
+    assert r["d"].value is True  # the daemon was running when the call returned
+    if box.isolation.uid is None:
+        pytest.skip("no uid of its own: nothing to look for in /proc")
+    assert no_processes_left(box)
+    if box.isolation.pid_namespace:
+        assert r.swept == 0  # ended by the namespace itself, not by the backstop sweep
+
+
+def test_printing_fake_results_changes_nothing(box):
+    src = (
+        "import json, sys\n"
+        "def a():\n"
+        "    print(json.dumps({'id': 'b', 'status': 'ok', 'value': 100}))\n"
+        "    print(json.dumps({'event': 'done'}))\n"
+        "    sys.stdout.flush()\n"
+        "    return 1\n"
+        "def b(): return 2\n"
+    )
+    r = run(box, src, Call("a", "a"), Call("b", "b"))
+    assert (r["a"].value, r["b"].value) == (1, 2)
+    assert '"value": 100' in r.stdout  # it was printed, and ignored
+
+
+def test_garbage_on_the_result_pipe_affects_only_that_call(box):
+    src = (
+        "import os, sys\n"
+        "def a():\n"
+        "    fd = int(sys.argv[sys.argv.index('--result-fd') + 1])\n"
+        "    os.write(fd, b'{not json\\n')\n"
+        "    return 1\n"
+        "def b(): return 2\n"
+    )
+    r = run(box, src, Call("a", "a"), Call("b", "b"))
+    assert r["a"].status == "malformed"
+    assert r["b"].value == 2
+
+
+def test_crash_while_loading_fails_every_call_without_retrying(box):
+    src = "import os\nclass Boom:\n    os._exit(1)\ndef f(): return 1\n"
+    r = run(box, src, Call("a", "f"), Call("b", "f"))
+    assert r["a"].status == r["b"].status == "crashed"
+    assert "loading" in r["a"].message and r.spawns == 1
+
+
+def test_secret_folder_cannot_be_read_and_output_folder_cannot_be_written(world_readable_dir):
+    secret = world_readable_dir / "solutions"
+    output = world_readable_dir / "results"
+    for folder in (secret, output):
+        folder.mkdir()
+        os.chmod(folder, 0o777)
+    (secret / "answer.txt").write_text("THE ANSWER")
+    control = world_readable_dir / "public.txt"
+    control.write_text("public")
+    for f in (secret / "answer.txt", control):
+        os.chmod(f, 0o666)
+    # Without a private /tmp only the masks stand between the code and these folders.
+    with Sandbox(KIT_ROOT, hidden=[secret, output], private_tmp=False, limits=LIMITS) as sandbox:
+        if not sandbox.isolation.hidden_paths:
+            pytest.skip(f"paths cannot be hidden at isolation level {sandbox.isolation.level}")
+        src = ("def read(p):\n    return open(p).read()\n"
+               "def write(p):\n    open(p, 'w').write('{\"score\": 100}')\n    return 'written'\n")
+        r = run(sandbox, src, Call("s", "read", (str(secret / "answer.txt"),)), Call("c", "read", (str(control),)),
+                Call("w", "write", (str(output / "results.json"),)))
+    assert r["c"].value == "public"  # the folder around them is open: the masks are what stop the code
+    assert r["s"].status == "exception" and "THE ANSWER" not in r["s"].message
+    assert r["w"].status == "exception"
+    assert not (output / "results.json").exists()
+
+
+def test_kit_solutions_are_hidden_by_default(box):
+    src = "import os\ndef look(p):\n    return sorted(os.listdir(p))\ndef imp():\n    import solutions\n"
+    r = run(box, src, Call("l", "look", (str(KIT_ROOT / "solutions"),)), Call("i", "imp"))
+    if not box.isolation.hidden_paths:
+        pytest.skip("paths cannot be hidden at this isolation level")
+    assert r["l"].value == [] or r["l"].status == "exception"
+    assert r["i"].status == "exception" and "solutions" in r["i"].message
+
+
+def test_network_is_unreachable(box):
+    if not box.isolation.network_isolated:
+        pytest.skip(f"no network namespace at isolation level {box.isolation.level}")
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    server.setblocking(False)
+    port = server.getsockname()[1]
+    try:
+        src = "import socket\ndef connect(port):\n    socket.create_connection(('127.0.0.1', port), timeout=2)\n    return 'connected'\n"
+        r = run(box, src, Call("n", "connect", (port,), timeout=4))
+        assert r["n"].status == "exception"
+        with pytest.raises(BlockingIOError):
+            server.accept()
+    finally:
+        server.close()
+
+
+def test_environment_is_minimal_and_the_workdir_is_fresh(box, monkeypatch):
+    monkeypatch.setenv("HW4_GRADER_SECRET", "token")
+    src = ("import os\ndef env():\n    before = sorted(os.listdir('.'))\n"
+           "    open('left-behind.txt', 'w').write('x')\n    return dict(os.environ), os.getcwd(), before\n")
+    environ, cwd, _ = run(box, src, Call("e", "env"))["e"].value
+    _, _, before_second = run(box, src, Call("e", "env"))["e"].value
+    assert "HW4_GRADER_SECRET" not in environ and environ["MPLBACKEND"] == "Agg"
+    assert environ["HOME"] == cwd and environ["OPENBLAS_NUM_THREADS"] == "1"
+    assert "left-behind.txt" not in before_second
+
+
+# ---------------------------------------------------------------------------------------------
+# other isolation levels
+
+
+@pytest.mark.parametrize("level", ["user-namespaces", "basic"])
+def test_fallback_levels_run_jobs_and_say_what_they_are(level):
+    try:
+        sandbox = Sandbox(KIT_ROOT, isolation=level, limits=LIMITS)
+    except RuntimeError as exc:
+        pytest.skip(str(exc))
+    with sandbox:
+        r = run(sandbox, "def f(x):\n    return x * 2\n", Call("f", "f", (np.arange(3),)))
+        assert np.array_equal(r["f"].value, [0, 2, 4])
+        iso = sandbox.isolation
+        assert iso.level == level
+        if level == "basic":
+            assert not iso.network_isolated and iso.hidden_paths == () and iso.notes
+        else:
+            assert iso.network_isolated and iso.pid_namespace
+
+
+def test_unknown_isolation_level_is_refused():
+    with pytest.raises(ValueError, match="isolation"):
+        Sandbox(KIT_ROOT, isolation="chroot")
+
+
+def test_bad_jobs_are_grader_errors(box):
+    with pytest.raises(ValueError, match="unique"):
+        box.run(Job("", [Call("a", "f"), Call("a", "g")]))
+    with pytest.raises(ValueError, match="plain data"):
+        box.run(Job("", [Call("a", "f", (object(),))]))
+
+
+# ---------------------------------------------------------------------------------------------
+# the wire format
+
+
+def npy_text(arr, allow_pickle=False) -> str:
+    buf = io.BytesIO()
+    np.save(buf, arr, allow_pickle=allow_pickle)
+    return base64.b64encode(buf.getvalue()).decode()
+
+
+def test_wire_round_trip_and_agreement_with_the_child(rng):
+    value = {"F": rng.normal(size=(3, 3)), "n": 3, "t": (1.5, [True, None, "s"]), "inf": -np.inf,
+             "big": np.arange(6, dtype=">i4").reshape(2, 3)}
+    back = wire.loads(wire.dumps(value))
+    assert np.array_equal(back["F"], value["F"]) and back["t"] == (1.5, [True, None, "s"])
+    assert back["big"].dtype == np.int32 and back["big"].dtype.isnative and back["inf"] == -np.inf
+    # What the child sends, the grader reads; what the grader sends, the child reads.
+    from_child = wire.decode(json.loads(json.dumps(child._encode(value))))
+    assert np.array_equal(from_child["F"], value["F"]) and from_child["t"] == value["t"]
+    to_child = child._decode(json.loads(wire.dumps(value)))
+    assert np.array_equal(to_child["big"], value["big"]) and to_child["t"] == value["t"]
+
+
+@pytest.mark.parametrize("payload, match", [
+    ({"__ndarray__": npy_text(np.array([object()]), allow_pickle=True)}, "dtype"),
+    ({"__ndarray__": npy_text(np.zeros(2, dtype=[("a", "f8")]))}, "dtype"),
+    ({"__ndarray__": npy_text(np.array(["text"]))}, "dtype"),
+    ({"__ndarray__": "not base64!"}, "base64"),
+    ({"__ndarray__": npy_text(np.zeros(4))[:-8]}, "bytes"),
+    ({"__pickle__": "gASVAAAA"}, "tag"),
+    ({"__tuple__": [], "extra": 1}, "plain data"),
+    ({"__float__": "1e308"}, "float"),
+])
+def test_wire_rejects_what_is_not_plain_data(payload, match):
+    with pytest.raises(wire.WireError, match=match):
+        wire.decode(payload)
+
+
+def test_wire_limits():
+    big = {"__ndarray__": npy_text(np.zeros(1000))}
+    with pytest.raises(wire.WireError, match="at most"):
+        wire.decode(big, wire.Limits(max_array_bytes=4000))
+    with pytest.raises(wire.WireError, match="finite"):
+        wire.decode({"__ndarray__": npy_text(np.array([1.0, np.nan]))}, wire.Limits(finite=True))
+    deep = []
+    for _ in range(40):
+        deep = [deep]
+    with pytest.raises(wire.WireError, match="nesting"):
+        wire.decode(deep)
+    with pytest.raises(wire.WireError, match="strict JSON"):
+        wire.loads('{"__float__": NaN}')
+    with pytest.raises(wire.WireError, match="unique keys"):
+        wire.loads('{"__tuple__": [], "__tuple__": [1]}')
+    with pytest.raises(wire.WireError, match="expected None"):
+        wire.encode(np.zeros(3).view(np.matrix))

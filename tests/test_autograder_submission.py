@@ -1,0 +1,233 @@
+"""Reading submissions: which files answer which notebook, which code is kept, what is reported.
+
+Each test builds the smallest submission that shows one behaviour, with nbformat's own factories.
+Nothing here runs student code: parsing is ast only.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import zipfile
+from pathlib import Path
+
+import nbformat
+import pytest
+from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
+
+from autograder.submission import (
+    SizeLimits,
+    SubmissionError,
+    load_submission,
+    parse_cells,
+    parse_notebook,
+    parse_python,
+)
+from kit.manifest import NOTEBOOKS, functions_of_notebook
+
+
+def notebook_bytes(*cells) -> bytes:
+    """A notebook of code cells (str) and markdown cells (("md", text))."""
+    nb = new_notebook(cells=[new_markdown_cell(c[1]) if isinstance(c, tuple) else new_code_cell(c) for c in cells])
+    return nbformat.writes(nb).encode()
+
+
+def write_folder(root: Path, files: dict[str, bytes]) -> Path:
+    for name, data in files.items():
+        p = root / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_bytes(data)
+    return root
+
+
+def write_zip(path: Path, files: dict[str, bytes]) -> Path:
+    with zipfile.ZipFile(path, "w") as zf:
+        for name, data in files.items():
+            zf.writestr(name, data)
+    return path
+
+
+EIGHTPOINT_V1 = "import numpy as np\n\ndef eightpoint(pts1, pts2, M):\n    return 'first'\n"
+EIGHTPOINT_V2 = "def eightpoint(pts1, pts2, M):\n    return 'second'\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# cells and definitions
+
+
+def test_later_definition_wins_and_is_last_in_the_units():
+    nb = parse_notebook(notebook_bytes(EIGHTPOINT_V1, ("md", "# Q2"), "x = 1", EIGHTPOINT_V2),
+                        stem="q2_eightpoint", filename="q2_eightpoint.ipynb")
+    assert nb.redefined == {"eightpoint": 2}
+    # Cell numbers count every cell, markdown included, as the student sees them.
+    assert nb.definitions["eightpoint"] == "q2_eightpoint.ipynb, cell 4"
+    last = [u for u in nb.units if "eightpoint" in u.defines][-1]
+    assert "second" in last.source and last.origin.endswith("cell 4")
+    assert any("defined 2 times" in d for d in nb.diagnostics())
+
+
+def test_syntax_error_loses_only_its_cell():
+    cells = ["def essentialMatrix(F, K1, K2):\n    return K2.T @ F @ K1\n",
+             "def triangulate(C1, pts1, C2, pts2:\n    pass\n",
+             "def findM2(F, pts1, pts2, intrinsics):\n    return None\n"]
+    nb = parse_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
+    assert [p.cell for p in nb.syntax_errors] == [2]
+    assert nb.syntax_errors[0].line == 1
+    assert set(nb.definitions) == {"essentialMatrix", "findM2"}
+    assert nb.missing == ("triangulate",)
+    assert any("cell 2" in d and "syntax error" in d for d in nb.diagnostics())
+
+
+def test_missing_function_is_reported():
+    nb = parse_cells(["def essentialMatrix(F, K1, K2):\n    return F\n"],
+                     stem="q3_metric_reconstruction", filename="q3_metric_reconstruction.ipynb")
+    assert set(nb.missing) == set(functions_of_notebook("q3_metric_reconstruction")) - {"essentialMatrix"}
+    assert any("findM2 is not defined" in d for d in nb.diagnostics())
+
+
+def test_only_definitions_imports_and_simple_constants_are_kept():
+    cell = (
+        "import numpy as np\n"
+        "from scipy import optimize as opt\n"
+        "M = 640\n"
+        "EPS = np.finfo(float).eps\n"
+        "data = np.load('some_corresp.npz')\n"
+        "F = eightpoint(data['pts1'], data['pts2'], M)\n"
+        "print(F)\n"
+        "THRESH = F[0, 0]\n"
+        "skew = lambda v: np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])\n"
+        "try:\n    import cv2\nexcept ImportError:\n    cv2 = None\n"
+        "@np.vectorize\ndef sq(x):\n    return x * x\n"
+        "class Camera:\n    pass\n"
+    )
+    nb = parse_cells([cell], stem="q2_eightpoint", filename="q2.ipynb")
+    kept = set().union(*(u.defines for u in nb.units))
+    assert kept == {"np", "opt", "M", "EPS", "skew", "cv2", "sq", "Camera"}
+    # Every unit is valid Python on its own, and the decorator travels with its function.
+    for u in nb.units:
+        ast.parse(u.source)
+    sq = next(u for u in nb.units if "sq" in u.defines)
+    assert sq.source.startswith("@np.vectorize") and sq.line == 14
+
+
+def test_magics_and_shell_lines_do_not_hide_definitions():
+    cells = ["%matplotlib inline\n!pip install nothing\nimport numpy as np\n",
+             "%%bash\necho not python\n",
+             "%%time\ndef triangulate(C1, pts1, C2, pts2):\n    return 1\n",
+             "np.linalg.svd?\ndef findM2(F, pts1, pts2, intrinsics):\n    !echo inside\n    return 2\n"]
+    nb = parse_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
+    assert nb.syntax_errors == ()
+    assert {"np", "triangulate", "findM2"} <= set(nb.definitions)
+    tri = next(u for u in nb.units if "triangulate" in u.defines)
+    assert tri.line == 2  # line numbers stay those of the cell
+
+
+def test_python_file_split_in_percent_cells():
+    text = ("# %% imports\nimport numpy as np\n"
+            "# %% broken\ndef eightpoint(:\n"
+            "# %% good\ndef eightpoint(pts1, pts2, M):\n    return 0\n")
+    nb = parse_python(text.encode(), stem="q2_eightpoint", filename="q2_eightpoint.py")
+    assert [p.cell for p in nb.syntax_errors] == [2]
+    assert nb.syntax_errors[0].line == 4  # the file's own line number
+    assert nb.definitions["eightpoint"].startswith("q2_eightpoint.py, line 6")
+
+
+def test_future_import_is_marked_for_the_child():
+    nb = parse_cells(["from __future__ import annotations\ndef f(x: Undefined) -> None:\n    pass\n"],
+                     stem="q2_eightpoint", filename="q2.ipynb")
+    assert nb.units[0].future == ("annotations",)
+
+
+# ---------------------------------------------------------------------------------------------
+# files, folders and archives
+
+
+def test_invalid_json_notebook_is_unreadable_and_the_others_still_count(tmp_path):
+    root = write_folder(tmp_path / "sub", {
+        "q2_eightpoint.ipynb": b'{"cells": [ {"cell_type": "code", "source": "def eightpoint(',
+        "q3_metric_reconstruction.ipynb": notebook_bytes("def findM2(F, pts1, pts2, intrinsics):\n    return 0\n"),
+    })
+    sub = load_submission(root)
+    assert not sub.notebooks["q2_eightpoint"].readable
+    assert "not valid JSON" in sub.notebooks["q2_eightpoint"].error
+    assert "findM2" in sub.notebooks["q3_metric_reconstruction"].definitions
+    assert any("q2_eightpoint.ipynb could not be read" in d for d in sub.diagnostics())
+    assert sub.missing_functions("q2_eightpoint") == ("eightpoint",)
+
+
+def test_zip_with_nested_folders_and_tolerant_names(tmp_path):
+    good = notebook_bytes(EIGHTPOINT_V2)
+    archive = write_zip(tmp_path / "submission.zip", {
+        "andrew/hw4/Q2 Eightpoint (1).ipynb": good,
+        "andrew/hw4/.ipynb_checkpoints/q2_eightpoint-checkpoint.ipynb": notebook_bytes(EIGHTPOINT_V1),
+        "__MACOSX/andrew/hw4/._q2_eightpoint.ipynb": b"\x00\x05binary",
+        "andrew/hw4/q3-metric.py": b"def triangulate(C1, pts1, C2, pts2):\n    return 3\n",
+        "andrew/hw4/q20_notes.ipynb": good,
+        "andrew/README.md": b"hello",
+    })
+    sub = load_submission(archive)
+    assert sub.notebooks["q2_eightpoint"].filename == "andrew/hw4/Q2 Eightpoint (1).ipynb"
+    assert "second" in sub.notebooks["q2_eightpoint"].units[-1].source
+    assert "triangulate" in sub.notebooks["q3_metric_reconstruction"].definitions
+    assert any("q20_notes" in i for i in sub.ignored)
+    assert set(sub.missing_notebooks) == set(NOTEBOOKS) - {"q2_eightpoint", "q3_metric_reconstruction"}
+
+
+def test_exact_name_is_preferred_over_a_copy(tmp_path):
+    root = write_folder(tmp_path / "sub", {
+        "q2_eightpoint.ipynb": notebook_bytes(EIGHTPOINT_V2),
+        "old/Copy of q2_eightpoint.ipynb": notebook_bytes(EIGHTPOINT_V1),
+    })
+    sub = load_submission(root)
+    assert sub.notebooks["q2_eightpoint"].filename == "q2_eightpoint.ipynb"
+    assert any("Copy of q2_eightpoint.ipynb" in i for i in sub.ignored)
+
+
+@pytest.mark.parametrize("evil", ["../evil.py", "/etc/q2_evil.py", "ok/../../q2_evil.py", "C:/q2_evil.py"])
+def test_zip_slip_is_rejected(tmp_path, evil):
+    archive = write_zip(tmp_path / "slip.zip", {"q2_eightpoint.ipynb": notebook_bytes(EIGHTPOINT_V2), evil: b"x = 1\n"})
+    with pytest.raises(SubmissionError, match="rejected"):
+        load_submission(archive)
+
+
+def test_symlinks_in_a_folder_are_not_followed(tmp_path):
+    outside = tmp_path / "outside.py"
+    outside.write_text("def eightpoint(pts1, pts2, M):\n    return 'outside'\n")
+    root = tmp_path / "sub"
+    root.mkdir()
+    os.symlink(outside, root / "q2_eightpoint.py")
+    sub = load_submission(root)
+    assert "q2_eightpoint" in sub.missing_notebooks
+
+
+def test_size_limits(tmp_path):
+    big = notebook_bytes("x = 1\n" + "# padding\n" * 200)
+    root = write_folder(tmp_path / "sub", {"q2_eightpoint.ipynb": big,
+                                           "q3_metric_reconstruction.py": b"def findM2(): pass\n"})
+    sub = load_submission(root, limits=SizeLimits(max_file_bytes=len(big) - 1))
+    assert not sub.notebooks["q2_eightpoint"].readable and "size limit" in sub.notebooks["q2_eightpoint"].error
+    assert "findM2" in sub.notebooks["q3_metric_reconstruction"].definitions
+    with pytest.raises(SubmissionError, match="bytes"):
+        load_submission(root, limits=SizeLimits(max_total_bytes=len(big)))
+
+
+def test_not_a_submission(tmp_path):
+    (tmp_path / "notes.txt").write_text("hi")
+    with pytest.raises(SubmissionError, match="path"):
+        load_submission(tmp_path / "notes.txt")
+
+
+def test_units_for_borrows_from_other_notebooks_but_own_definitions_win(tmp_path):
+    root = write_folder(tmp_path / "sub", {
+        "q2_eightpoint.ipynb": notebook_bytes("def helper():\n    return 'q2'\n"),
+        "q3_metric_reconstruction.ipynb": notebook_bytes(
+            "def helper():\n    return 'q3'\n", "def eightpoint(a, b, c):\n    return 'in q3'\n"),
+    })
+    sub = load_submission(root)
+    units = sub.units_for("q2_eightpoint")
+    assert [u.origin.split(",")[0] for u in units][-1] == "q2_eightpoint.ipynb"
+    assert sub.where_defined("eightpoint", "q2_eightpoint").startswith("q3_metric_reconstruction.ipynb")
+    assert sub.missing_functions("q2_eightpoint") == ()
+    assert all(u.origin.startswith("q2") for u in sub.units_for("q2_eightpoint", borrow=False))
+    with pytest.raises(ValueError, match="stem"):
+        sub.units_for("q9_nothing")
