@@ -1,0 +1,388 @@
+"""The code bundle a student hands to the autograder, and what their notebooks define.
+
+The bundle is a zip of the homework notebooks (``<stem>.ipynb`` at the top level, one per
+manifest notebook found) plus, when asked for explicitly or sitting beside them, small ``.py``
+helper modules.  Building it never runs student code: notebooks are read with nbformat and
+their code cells parsed with :mod:`ast`, so a notebook that would hang, crash or delete files
+is still checked.  Problems come back as a list of warnings in a :class:`BundleReport`, never
+as an exception, because a half-finished homework must still be submittable.
+
+The same inspection (:func:`inspect_notebook`) tells the PDF cover which questions look
+answered and what the student's name is.
+"""
+
+from __future__ import annotations
+
+import ast
+import difflib
+import re
+import zipfile
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import nbformat
+
+from kit.manifest import NOTEBOOKS, functions_of_notebook
+
+__all__ = [
+    "NotebookInfo",
+    "Selection",
+    "BundleReport",
+    "select_notebooks",
+    "inspect_notebook",
+    "student_name",
+    "build_bundle",
+]
+
+# A helper module beside the notebooks is welcome, a data file or a stray video is not.
+HELPER_SUFFIXES = (".py",)
+MAX_HELPER_KB = 256
+NAME_PLACEHOLDERS = {"", "your name", "your name here", "firstname lastname", "first last"}
+
+
+@dataclass
+class Selection:
+    """Notebooks picked from what the student pointed at.
+
+    notebooks: paths in manifest order, then any extra notebook given explicitly;
+    extras: other small files given explicitly or found beside them (helper modules);
+    skipped: (path, reason) for everything left out on purpose.
+    """
+
+    notebooks: list[Path]
+    extras: list[Path] = field(default_factory=list)
+    skipped: list[tuple[Path, str]] = field(default_factory=list)
+
+
+@dataclass
+class NotebookInfo:
+    """What one notebook contains, found without running it.
+
+    path: the file; stem: its manifest stem, or None for a notebook the manifest does not know;
+    nb: the parsed notebook (nbformat v4) or None when it could not be read;
+    implemented: names defined at the top level of a code cell by something other than a stub;
+    stubs: functions whose body is still ``pass``/``...``/``raise NotImplementedError``;
+    problems: human-readable reasons some cells could not be checked (syntax errors, bad JSON);
+    student_name: the value of a ``STUDENT_NAME = "..."`` assignment, if any.
+    """
+
+    path: Path
+    stem: str | None
+    nb: nbformat.NotebookNode | None
+    implemented: set[str] = field(default_factory=set)
+    stubs: set[str] = field(default_factory=set)
+    problems: list[str] = field(default_factory=list)
+    student_name: str | None = None
+
+    def missing(self) -> list[str]:
+        """Manifest functions of this notebook that are not implemented, in manifest order."""
+        if self.stem is None:
+            return []
+        return [f for f in functions_of_notebook(self.stem) if f not in self.implemented]
+
+
+@dataclass
+class BundleReport:
+    """The result of :func:`build_bundle`.
+
+    zip_path: the zip written, or None when nothing could be bundled; included: archive names;
+    size_bytes: size of the zip; max_bytes: the cap; missing_notebooks: manifest stems not found;
+    missing_functions / stub_functions: per notebook stem, names not defined / still stubs;
+    skipped: (path, reason) for files left out; problems: cells or files that could not be read.
+    """
+
+    zip_path: Path | None
+    included: list[str]
+    size_bytes: int
+    max_bytes: int
+    missing_notebooks: list[str]
+    missing_functions: dict[str, list[str]]
+    stub_functions: dict[str, list[str]]
+    skipped: list[tuple[Path, str]]
+    problems: list[str]
+
+    @property
+    def too_large(self) -> bool:
+        return self.size_bytes > self.max_bytes
+
+    @property
+    def warnings(self) -> list[str]:
+        """One sentence per problem, most serious first (empty when everything is in)."""
+        out = []
+        if self.too_large:
+            out.append(f"the zip is {self.size_bytes / 2**20:.1f} MB, over the {self.max_bytes / 2**20:.0f} MB "
+                       "limit: clear the outputs of cells with large figures and save again")
+        out += [f"notebook {stem}.ipynb not found" for stem in self.missing_notebooks]
+        for stem, names in self.stub_functions.items():
+            out.append(f"{stem}.ipynb: still a stub (raises NotImplementedError): {', '.join(names)}")
+        for stem, names in self.missing_functions.items():
+            out.append(f"{stem}.ipynb: not defined: {', '.join(names)}")
+        out += self.problems
+        out += [f"left out {p.name}: {why}" for p, why in self.skipped]
+        return out
+
+    @property
+    def ok(self) -> bool:
+        """True when every notebook and function is there and the zip fits the cap."""
+        return not (self.too_large or self.missing_notebooks or self.missing_functions
+                    or self.stub_functions or self.problems)
+
+    def __str__(self) -> str:
+        head = (f"{self.zip_path}: {len(self.included)} file(s), {self.size_bytes / 2**20:.2f} MB"
+                if self.zip_path else "no zip written")
+        lines = [head] + [f"  {name}" for name in self.included]
+        lines += ["warning: " + w for w in self.warnings] or ["all expected functions are defined"]
+        return "\n".join(lines)
+
+
+def _paths(source, argname: str) -> tuple[list[Path], bool]:
+    """(paths, came_from_folder) for a folder, one file, or an iterable of files."""
+    if isinstance(source, (str, Path)):
+        p = Path(source)
+        if p.is_dir():
+            return sorted(q for q in p.iterdir() if q.is_file()), True
+        items = [p]
+    else:
+        try:
+            items = [Path(s) for s in source]
+        except TypeError:
+            raise ValueError(f"{argname}: expected a folder or a list of files, "
+                             f"got {type(source).__name__}") from None
+    if not items:
+        raise ValueError(f"{argname}: expected at least one notebook, got an empty list")
+    for p in items:
+        if not p.is_file():
+            raise ValueError(f"{argname}: expected a folder or existing files, {str(p)!r} does not exist")
+    return items, False
+
+
+def _near_miss(stem: str) -> str | None:
+    """The manifest stem a misnamed copy ("q2_eightpoint (1)", "q2_eightpoint-Copy1") stands for."""
+    for known in NOTEBOOKS:
+        if stem.startswith(known):
+            return known
+    close = difflib.get_close_matches(stem, NOTEBOOKS, n=1, cutoff=0.8)
+    return close[0] if close else None
+
+
+def select_notebooks(source, *, argname: str = "notebooks", allow_helpers: bool = False) -> Selection:
+    """Pick the homework notebooks from a folder or from a list of files.
+
+    Parameters
+    ----------
+    source : str or Path or iterable of str/Path
+        A folder (its top-level ``<stem>.ipynb`` files whose stem is in the manifest are taken,
+        other notebooks are skipped with a reason), one notebook, or a list of files (every
+        notebook listed is taken; manifest ones first, in manifest order).
+    argname : str
+        The caller's argument name, used in error messages.
+    allow_helpers : bool
+        Also take small ``.py`` files (helper modules) found or listed; larger ones and files of
+        any other type are skipped with a reason.
+
+    Raises
+    ------
+    ValueError
+        When a listed file does not exist, two notebooks share a stem, or no notebook is found.
+    """
+    paths, from_folder = _paths(source, argname)
+    by_stem: dict[str, Path] = {}
+    others: list[Path] = []
+    sel = Selection(notebooks=[])
+    for p in paths:
+        if p.suffix == ".ipynb":
+            if p.stem in NOTEBOOKS:
+                if p.stem in by_stem:
+                    raise ValueError(f"{argname}: expected one notebook per stem, got {by_stem[p.stem]} and {p}")
+                by_stem[p.stem] = p
+            elif from_folder:
+                hint = _near_miss(p.stem)
+                why = (f"not a homework notebook name; rename it {hint}.ipynb if it is your answer"
+                       if hint else "not one of the homework notebooks (pass it explicitly to include it)")
+                sel.skipped.append((p, why))
+            else:
+                others.append(p)
+        elif p.suffix in HELPER_SUFFIXES and allow_helpers:
+            kb = p.stat().st_size / 1024
+            if kb > MAX_HELPER_KB:
+                sel.skipped.append((p, f"{kb:.0f} KB, larger than the {MAX_HELPER_KB} KB allowed for a helper module"))
+            else:
+                sel.extras.append(p)
+        elif not from_folder:
+            # A data file sitting in the folder is not worth a word; one the student named is.
+            size = p.stat().st_size / 2**20
+            sel.skipped.append((p, f"not a notebook or helper module ({size:.1f} MB)"))
+    sel.notebooks = [by_stem[s] for s in NOTEBOOKS if s in by_stem] + others
+    if not sel.notebooks:
+        found = ", ".join(p.name for p in paths[:8]) or "nothing"
+        raise ValueError(f"{argname}: expected homework notebooks ({', '.join(s + '.ipynb' for s in NOTEBOOKS)}), "
+                         f"found {found}")
+    return sel
+
+
+def _is_stub(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    """A body that is only a docstring, pass, ``...`` or contains a top-level NotImplementedError raise."""
+    body = list(fn.body)
+    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+            and isinstance(body[0].value.value, str):
+        body = body[1:]
+    for stmt in body:
+        if isinstance(stmt, ast.Raise) and stmt.exc is not None:
+            exc = stmt.exc.func if isinstance(stmt.exc, ast.Call) else stmt.exc
+            if isinstance(exc, ast.Name) and exc.id == "NotImplementedError":
+                # Code before the raise is the skeleton's setup, not an answer.
+                return True
+    return all(isinstance(s, ast.Pass) or (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant)
+                                           and s.value.value is Ellipsis) for s in body)
+
+
+def _python_source(cell_source: str) -> str:
+    """Cell source with IPython syntax (magics, ``!cmd``, ``x?``) turned into plain Python."""
+    try:
+        from IPython.core.inputtransformer2 import TransformerManager
+    except ImportError:  # no IPython: blank out the lines ast would choke on
+        return "\n".join("" if line.lstrip().startswith(("%", "!")) else line
+                         for line in cell_source.splitlines())
+    return TransformerManager().transform_cell(cell_source)
+
+
+def _scan_cell(tree: ast.Module, info: NotebookInfo) -> None:
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            # A later definition replaces an earlier one, as it would when the cells run.
+            if _is_stub(node):
+                info.stubs.add(node.name)
+                info.implemented.discard(node.name)
+            else:
+                info.implemented.add(node.name)
+                info.stubs.discard(node.name)
+        elif isinstance(node, ast.ClassDef):
+            info.implemented.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            names = [t.id for t in targets if isinstance(t, ast.Name)]
+            value = node.value
+            if "STUDENT_NAME" in names and isinstance(value, ast.Constant) and isinstance(value.value, str):
+                if value.value.strip().lower() not in NAME_PLACEHOLDERS:
+                    info.student_name = value.value.strip()
+            elif value is not None:
+                for n in names:  # e.g. ``triangulate = my_triangulate``
+                    info.implemented.add(n)
+                    info.stubs.discard(n)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            for alias in node.names:
+                name = alias.asname or alias.name.split(".")[0]
+                info.implemented.add(name)
+                info.stubs.discard(name)
+
+
+def inspect_notebook(path) -> NotebookInfo:
+    """Read a notebook and find, without running it, what its code cells define.
+
+    Parameters
+    ----------
+    path : str or Path
+        An ``.ipynb`` file.
+
+    Returns
+    -------
+    NotebookInfo
+        ``nb`` is None and ``problems`` says why when the file is not a readable notebook.
+    """
+    path = Path(path)
+    info = NotebookInfo(path=path, stem=path.stem if path.stem in NOTEBOOKS else None, nb=None)
+    try:
+        info.nb = nbformat.read(path, as_version=4)
+    except Exception as exc:  # bad JSON, unknown nbformat, not a notebook at all
+        info.problems.append(f"{path.name}: not a readable notebook ({type(exc).__name__}: {exc})")
+        return info
+    for index, cell in enumerate(info.nb.cells, start=1):
+        if cell.cell_type != "code" or not cell.source.strip():
+            continue
+        try:
+            tree = ast.parse(_python_source(cell.source))
+        except SyntaxError as exc:
+            info.problems.append(f"{path.name}: code cell {index} has a syntax error "
+                                 f"(line {exc.lineno}: {exc.msg}); its definitions were not checked")
+            continue
+        _scan_cell(tree, info)
+    return info
+
+
+def student_name(infos: Iterable[NotebookInfo]) -> str | None:
+    """The first non-placeholder ``STUDENT_NAME`` found, in the order given."""
+    return next((i.student_name for i in infos if i.student_name), None)
+
+
+def _safe_arcname(name: str) -> str:
+    # Archive names stay flat and portable whatever the student called the file.
+    return re.sub(r"[^A-Za-z0-9._ ()-]", "_", name)
+
+
+def build_bundle(folder_or_notebooks, out_zip, *, max_mb: float = 50.0) -> BundleReport:
+    """Zip the student's notebooks for the autograder and check what they define.
+
+    Parameters
+    ----------
+    folder_or_notebooks : str or Path or iterable of str/Path
+        A folder holding the homework notebooks (``q2_eightpoint.ipynb`` ...), or a list of files.
+        Small ``.py`` helper modules found or listed are included; anything else is left out
+        with a reason in ``report.skipped``.
+    out_zip : str or Path
+        The zip to write (its folder is created). Notebooks go in at the top level.
+    max_mb : float
+        Size cap of the zip in MiB; a larger zip is still written but ``report.ok`` is False.
+
+    Returns
+    -------
+    BundleReport
+        ``report.warnings`` lists what is missing: notebooks, functions not defined or still
+        stubs, cells with syntax errors, files left out, an oversize zip. Nothing raises for those.
+
+    Raises
+    ------
+    ValueError
+        When ``folder_or_notebooks`` names no notebook at all, a listed file does not exist, or
+        ``max_mb`` is not a positive number.
+    """
+    try:
+        max_mb = float(max_mb)
+    except (TypeError, ValueError):
+        raise ValueError(f"max_mb: expected a positive number, got {max_mb!r}") from None
+    if not max_mb > 0:
+        raise ValueError(f"max_mb: expected a positive number, got {max_mb!r}")
+    sel = select_notebooks(folder_or_notebooks, argname="folder_or_notebooks", allow_helpers=True)
+    infos = [inspect_notebook(p) for p in sel.notebooks]
+    present = {i.stem for i in infos if i.stem}
+    missing_functions: dict[str, list[str]] = {}
+    stubs: dict[str, list[str]] = {}
+    for info in infos:
+        # A stub is reported once, as a stub, not also as "not defined".
+        if names := [f for f in info.missing() if f in info.stubs]:
+            stubs[info.stem] = names
+        if names := [f for f in info.missing() if f not in info.stubs]:
+            missing_functions[info.stem] = names
+
+    out_zip = Path(out_zip)
+    out_zip.parent.mkdir(parents=True, exist_ok=True)
+    included: list[str] = []
+    with zipfile.ZipFile(out_zip, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for p in sel.notebooks + sel.extras:
+            arcname = _safe_arcname(p.name)
+            if arcname in included:
+                sel.skipped.append((p, f"another file is already called {arcname} in the zip"))
+                continue
+            zf.write(p, arcname)
+            included.append(arcname)
+    return BundleReport(
+        zip_path=out_zip,
+        included=included,
+        size_bytes=out_zip.stat().st_size,
+        max_bytes=int(max_mb * 2**20),
+        missing_notebooks=[s for s in NOTEBOOKS if s not in present],
+        missing_functions=missing_functions,
+        stub_functions=stubs,
+        skipped=sel.skipped,
+        problems=[msg for i in infos for msg in i.problems],
+    )
