@@ -71,12 +71,11 @@ def plot_3d_keypoint_video(pts_3d_video):
 
     Returns
     -------
-    The figure object of ``starter.plot_3d_keypoint_video_frames`` (rotatable on screen, with a
-    static image for the PDF).
+    A ``starter.Figure3D`` (rotatable on screen, with a static image for the PDF).
     """
-    from starter import plot_3d_keypoint_video_frames
+    from starter import plot_3d_keypoint_frames
 
     video = np.asarray([np.asarray(p, dtype=float) for p in pts_3d_video])
     if video.ndim != 3 or video.shape[2] != 3:
         raise ValueError(f"pts_3d_video: expected shape (T, N, 3), got {video.shape}")
-    return plot_3d_keypoint_video_frames(video)
+    return plot_3d_keypoint_frames(video, title=f"the car over {len(video)} time steps")
