@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
-from starter.validate import as_matrix, as_points, same_length
+from starter.validate import as_finite_scalar, as_matrix, as_points, same_length
 
 __all__ = ["MultiviewReconstruction", "plot_3d_keypoint_video"]
 
@@ -43,9 +43,7 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
     Cs = np.stack([as_matrix(C, f"C{i}", (3, 4)) for i, C in enumerate((C1, C2, C3), 1)])
     pts = [as_points(p, f"pts{i}", dims=3) for i, p in enumerate((pts1, pts2, pts3), 1)]
     n = same_length(pts1=pts[0], pts2=pts[1], pts3=pts[2])
-    thres = float(Thres)
-    if not np.isfinite(thres):
-        raise ValueError(f"Thres: expected a finite number, got {Thres!r}")
+    thres = as_finite_scalar(Thres, "Thres")
     xy = np.stack([p[:, :2] for p in pts], axis=1)            # (N, 3 views, 2)
     used = np.stack([p[:, 2] > thres for p in pts], axis=1)    # (N, 3)
     P = np.full((n, 3), np.nan)

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validate import DegenerateInputError, as_image, as_matrix, as_points, as_positive_scalar
+from .validate import DegenerateInputError, as_finite_scalar, as_image, as_matrix, as_points, as_positive_scalar
 
 __all__ = [
     "epipolar_line",
@@ -53,14 +53,6 @@ __all__ = [
 # geometry
 
 
-def _as_coordinate(value, name: str) -> float:
-    try:
-        v = float(np.asarray(value, dtype=float).reshape(()))
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not np.isfinite(v):
-        raise ValueError(f"{name}: expected a finite number, got {v!r}")
-    return v
 
 
 def epipolar_line(F, x1, y1) -> np.ndarray:
@@ -87,7 +79,7 @@ def epipolar_line(F, x1, y1) -> np.ndarray:
         image 1, whose epipolar "line" is undefined.
     """
     F = as_matrix(F, "F", (3, 3))
-    x = np.array([_as_coordinate(x1, "x1"), _as_coordinate(y1, "y1"), 1.0])
+    x = np.array([as_finite_scalar(x1, "x1"), as_finite_scalar(y1, "y1"), 1.0])
     line = F @ x
     norm = np.hypot(line[0], line[1])
     # relative test: F is only known up to scale
@@ -276,8 +268,8 @@ class EpipolarSession:
             something other than two finite numbers.  Whatever ``match_fn`` raises passes
             through unchanged.
         """
-        x = _as_coordinate(x1, "x1")
-        y = _as_coordinate(y1, "y1")
+        x = as_finite_scalar(x1, "x1")
+        y = as_finite_scalar(y1, "y1")
         w1, h1 = self.size1
         if not (-0.5 <= x < w1 - 0.5):
             raise ValueError(f"x1: expected a column of image 1, in [0, {w1 - 1}], got {x:g}")

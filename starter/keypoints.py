@@ -13,19 +13,11 @@ import numpy as np
 
 from .figures import DEFAULT_COLORS, Figure3D, plot_points_3d, points_with_gaps
 from .skeleton import CAR_KEYPOINTS, CAR_SKELETON
-from .validate import as_image, as_points
+from .validate import as_finite_scalar, as_image, as_points
 
 __all__ = ["visualize_keypoints", "plot_3d_keypoint", "plot_3d_keypoint_frames"]
 
 
-def _as_threshold(value, name: str) -> float:
-    try:
-        v = float(np.asarray(value, dtype=float).reshape(()))
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not np.isfinite(v):
-        raise ValueError(f"{name}: expected a finite number, got {v!r}")
-    return v
 
 
 def _check_skeleton(skeleton, n_points: int, name: str) -> np.ndarray:
@@ -78,7 +70,7 @@ def visualize_keypoints(image, pts, Thres, ax=None, *, skeleton=CAR_SKELETON,
     """
     img = as_image(image, "image")
     P = as_points(pts, "pts", dims=3)
-    thres = _as_threshold(Thres, "Thres")
+    thres = as_finite_scalar(Thres, "Thres")
     edges = _check_skeleton(skeleton, len(P), "pts")
     if ax is None:
         import matplotlib.pyplot as plt

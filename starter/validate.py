@@ -16,6 +16,7 @@ __all__ = [
     "as_matrix",
     "as_image",
     "as_positive_scalar",
+    "as_finite_scalar",
     "same_length",
     "DegenerateInputError",
 ]
@@ -124,13 +125,24 @@ def as_image(value, name: str) -> np.ndarray:
     return out
 
 
+def as_finite_scalar(value, name: str) -> float:
+    """Return a finite float (a Python number or a 0-d/1-element array), or raise ValueError."""
+    try:
+        v = float(np.asarray(value, dtype=float).reshape(()))
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+    if not np.isfinite(v):
+        raise ValueError(f"{name}: expected a finite number, got {v!r}")
+    return v
+
+
 def as_positive_scalar(value, name: str) -> float:
     """Return a finite, strictly positive float, or raise ValueError."""
     try:
-        v = float(np.asarray(value).reshape(()))
-    except Exception:
-        raise ValueError(f"{name}: expected a positive number, got {value!r}") from None
-    if not np.isfinite(v) or v <= 0:
+        v = as_finite_scalar(value, name)
+    except ValueError:
+        raise ValueError(f"{name}: expected a positive finite number, got {value!r}") from None
+    if v <= 0:
         raise ValueError(f"{name}: expected a positive finite number, got {v!r}")
     return v
 
