@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.optimize
-import scipy.sparse
 
 from starter import invRodrigues, rodrigues
 from starter.validate import as_matrix, as_points, same_length
@@ -50,21 +49,26 @@ def _residuals(C1, K2, p1, p2, x):
     return np.concatenate([(p1 - _project(C1, w)).ravel(), (p2 - _project(K2 @ M2, w)).ravel()])
 
 
-def _jacobian_pattern(n, n_camera):
-    # Point i moves only its own 4 residuals; the camera parameters move only the image-2 ones.
-    rows, cols = [], []
-    for img in (0, 1):
-        for k in (0, 1):
-            r = 2 * n * img + 2 * np.arange(n) + k
-            for j in range(3):
-                rows.append(r)
-                cols.append(3 * np.arange(n) + j)
-            if img == 1:
-                for j in range(n_camera):
-                    rows.append(r)
-                    cols.append(np.full(n, 3 * n + j))
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    return scipy.sparse.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(4 * n, 3 * n + n_camera)).tocsr()
+def _jacobian(fun, z, n, f0):
+    """Forward-difference Jacobian (4N, 3N + k) of the residuals in 3 + k evaluations.
+
+    Point i moves only its own four residuals, so the x (then y, then z) coordinates of every
+    point can be nudged in one evaluation; each of the k camera parameters gets its own.
+    """
+    J = np.zeros((f0.size, z.size))
+    rows = (2 * np.arange(n)[:, None] + np.array([0, 1, 2 * n, 2 * n + 1])[None, :])  # (N, 4)
+    cols = 3 * np.arange(n)
+    for j in range(3):
+        step = 1e-6 * np.maximum(1.0, np.abs(z[cols + j]))
+        zz = z.copy()
+        zz[cols + j] += step
+        J[rows, (cols + j)[:, None]] = ((fun(zz) - f0)[rows]) / step[:, None]
+    for j in range(3 * n, z.size):
+        step = 1e-6 * max(1.0, abs(z[j]))
+        zz = z.copy()
+        zz[j] += step
+        J[:, j] = (fun(zz) - f0) / step
+    return J
 
 
 def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
@@ -82,8 +86,8 @@ def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
     M2 : (3, 4) refined [R | t];  w : (N, 3) refined points;
     o1, o2 : total squared reprojection error (pixels^2) before and after.
 
-    Solved with scipy.optimize.least_squares (trust region, sparse Jacobian pattern): the
-    residuals of a point depend on that point and camera 2 only.  The scale of the scene is
+    Solved with scipy.optimize.least_squares (Levenberg-Marquardt); the residuals of a point
+    depend on that point and camera 2 only, so the Jacobian costs 3 + 5 evaluations.  The scale of the scene is
     free (points and t can shrink together), so |t2| is held at its initial value.
     """
     K1 = as_matrix(K1, "K1", (3, 3))
@@ -114,8 +118,10 @@ def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
         return _residuals(C1, K2, p1, p2, unpack(z))
 
     o1 = float(np.sum(fun(z0) ** 2))
-    res = scipy.optimize.least_squares(fun, z0, jac_sparsity=_jacobian_pattern(n, 5), method="trf",
-                                       x_scale="jac", max_nfev=500)
+    # Levenberg-Marquardt with an exact linear solve at each step: a few iterations from the
+    # RANSAC start, where a trust region with an iterative (lsmr) solve wandered for hundreds.
+    res = scipy.optimize.least_squares(fun, z0, jac=lambda z: _jacobian(fun, z, n, fun(z)), method="lm",
+                                       x_scale="jac")
     x = unpack(res.x)
     M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), x[3 * n + 3:, None]])
     w = x[:3 * n].reshape(n, 3)
