@@ -1,0 +1,38 @@
+"""Public self-checks for students: run one on your function to see what works and what does not.
+
+Each ``check_<name>(your_function)`` runs your function on generated scenes whose answers are
+known, and on the default data in data/ when it is there, then prints one line per check (a
+tick or a cross, the figure measured and the goal) and names any known mistake it recognises,
+with a hint.  It returns a :class:`CheckReport` (``.passed``, ``.items``, ``.mistakes``).
+
+>>> from starter.checks import check_eightpoint      # doctest: +SKIP
+>>> check_eightpoint(eightpoint)                      # doctest: +SKIP
+
+These are public checks: passing them promises nothing about the hidden tests.
+"""
+
+from .bundle import check_bundleAdjustment, check_rodriguesResidual
+from .correspondence import check_compute3D_pts, check_epipolarCorrespondence
+from .essential import check_essentialMatrix
+from .fundamental import check_eightpoint
+from .mistakes import KNOWN_MISTAKES, Mistake
+from .multiview import check_MultiviewReconstruction
+from .pose import check_findM2
+from .report import CheckItem, CheckReport
+from .triangulation import check_triangulate
+
+__all__ = [
+    "KNOWN_MISTAKES",
+    "CheckItem",
+    "CheckReport",
+    "Mistake",
+    "check_MultiviewReconstruction",
+    "check_bundleAdjustment",
+    "check_compute3D_pts",
+    "check_eightpoint",
+    "check_epipolarCorrespondence",
+    "check_essentialMatrix",
+    "check_findM2",
+    "check_rodriguesResidual",
+    "check_triangulate",
+]

@@ -1,0 +1,508 @@
+"""The catalogue of known mistakes: pure functions that recognise them in arrays.
+
+Each function takes what a student's code returned (and what the caller knows to be true),
+and returns a :class:`Mistake` (or a list of them) when the numbers carry the signature of a
+known mistake, ``None`` (or ``[]``) otherwise.  Nothing here calls student code or prints, so
+the public checks and the autograder's feedback share one catalogue.
+
+Conventions: a pixel is (x, y) = (column, row); F maps a point x1 of image 1 to the line
+F x1 of image 2 (x2^T F x1 = 0); M = [R | t] (3x4) maps world to camera coordinates;
+C = K M.  F and E are compared up to scale and sign.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+
+from starter.epipolar import epipolar_distances
+from starter.pose import camera2
+
+__all__ = [
+    "KNOWN_MISTAKES",
+    "Mistake",
+    "ba_mistakes",
+    "error_not_sum_of_squares",
+    "essential_mistakes",
+    "fundamental_mistakes",
+    "mistake",
+    "points_behind_cameras",
+    "points_xy_swapped",
+    "rank2_not_enforced",
+    "residual_layout",
+    "same_up_to_scale",
+    "threshold_mistakes",
+    "uint16_wraparound",
+    "wrong_camera",
+]
+
+
+@dataclass(frozen=True)
+class Mistake:
+    """A recognised mistake.
+
+    code : stable identifier (a key of ``KNOWN_MISTAKES``), for programs.
+    name : short name for people, e.g. "F transposed".
+    hint : one line saying what to do instead.
+    evidence : the figures that gave it away (may be empty).
+    """
+
+    code: str
+    name: str
+    hint: str
+    evidence: str = ""
+
+    def __str__(self) -> str:
+        return f"{self.name}: {self.hint}" + (f" ({self.evidence})" if self.evidence else "")
+
+
+KNOWN_MISTAKES: dict[str, tuple[str, str]] = {
+    "f_transposed": (
+        "F transposed",
+        ("F must send a point of image 1 to its line in image 2 (x2^T F x1 = 0); you return F^T: "
+         "check the order of x1 and x2 in each row of your system.")),
+    "f_rank3": (
+        "rank 2 not enforced",
+        "set the smallest singular value of F to zero (SVD) before unscaling: a fundamental matrix has rank 2."),
+    "f_not_unscaled": (
+        "F not unscaled",
+        ("F was fitted to the points divided by M; return T^T F T with T = diag(1/M, 1/M, 1) so that it "
+         "works on pixels.")),
+    "f_unscaled_wrong_way": (
+        "F unscaled the wrong way",
+        ("unscale with the matrix that scaled the points, T = diag(1/M, 1/M, 1): F_pixels = T^T F T "
+         "(not diag(M, M, 1)).")),
+    "xy_swapped": (
+        "x and y swapped",
+        ("a pixel is (x, y) = (column, row): x indexes columns and y rows; keep that order in the points "
+         "you use and return.")),
+    "uint16_wraparound": (
+        "uint16 wrap-around",
+        ("the data files hold uint16 points, where 54 - 55 is 65535 and products overflow: cast them with "
+         ".astype(float) before any arithmetic.")),
+    "e_k_order": (
+        "K1 and K2 swapped in E",
+        "E = K2^T F K1: F takes image-1 points, so K1 goes on the right and K2^T on the left."),
+    "e_missing_k": (
+        "a K missing in E",
+        "E = K2^T F K1 needs both intrinsics, one on each side of F."),
+    "e_inverse_k": (
+        "inverse K in E",
+        "E = K2^T F K1; it is F that has the inverses (F = K2^-T E K1^-1)."),
+    "e_same_k": (
+        "the same K on both sides of E",
+        "E = K2^T F K1 uses K1 on the right and K2 on the left; they differ in general."),
+    "e_transposed": (
+        "E transposed",
+        "E = K2^T F K1 (not its transpose K1^T F^T K2): x2n^T E x1n = 0 for normalised points."),
+    "error_not_sum_of_squares": (
+        "error not the sum of squares",
+        ("err = sum over the points of |x1 - proj(C1, w)|^2 + |x2 - proj(C2, w)|^2, in pixels^2: "
+         "no mean, no square root, both images.")),
+    "points_behind": (
+        "points behind a camera",
+        ("a correct reconstruction puts every point at positive depth in both cameras "
+         "(third coordinate of M [w; 1] > 0).")),
+    "wrong_camera": (
+        "wrong camera of the four",
+        ("choose the camera2 candidate that puts the points in front of both cameras; all four "
+         "reproject equally well, so the error cannot decide.")),
+    "residual_layout": (
+        "residuals in another layout",
+        ("residuals = concatenate([(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()]): image 1 first, "
+         "x then y of each point.")),
+    "x_packing": (
+        "x unpacked in another order",
+        ("x = concatenate([w.ravel(), r2, t2]): the N points first (x, y, z of each), then the Rodrigues "
+         "vector r2, then t2.")),
+    "ba_not_decreasing": (
+        "BA error not decreasing",
+        ("the optimised error must be below the initial one: minimise the sum of squared residuals from "
+         "x0 = [w_init, r2, t2] and unpack the optimiser's result (res.x), not x0.")),
+    "ba_scale_collapse": (
+        "BA scale collapse",
+        ("points and t can shrink together without changing any projection: fix |t| (or keep the gauge "
+         "otherwise) so that the scene cannot collapse towards t = 0.")),
+    "threshold_inclusive": (
+        "detections at exactly Thres used",
+        "use a detection only when its confidence is strictly greater than Thres (>, not >=)."),
+    "threshold_ignored": (
+        "low-confidence detections used",
+        "leave out every detection whose confidence is not above Thres before triangulating."),
+    "threshold_too_strict": (
+        "confident detections left out",
+        ("a detection whose confidence is above Thres must be used: a keypoint with two confident views "
+         "is triangulated from those two.")),
+}
+
+
+def mistake(code: str, evidence: str = "") -> Mistake:
+    """The catalogue's Mistake ``code``, with the figures that gave it away."""
+    if code not in KNOWN_MISTAKES:
+        raise ValueError(f"code: expected one of {sorted(KNOWN_MISTAKES)}, got {code!r}")
+    name, hint = KNOWN_MISTAKES[code]
+    return Mistake(code, name, hint, evidence)
+
+
+# ----------------------------------------------------------------------------- small tools
+
+def _unit(A) -> np.ndarray | None:
+    A = np.asarray(A, dtype=float)
+    n = np.linalg.norm(A)
+    return A / n if np.isfinite(n) and n > 0 else None
+
+
+def same_up_to_scale(A, B, rtol: float = 1e-6) -> bool:
+    """True when A and B (same shape) agree up to a non-zero scale and sign, to ``rtol`` of their norm."""
+    a, b = _unit(A), _unit(B)
+    if a is None or b is None or a.shape != b.shape:
+        return False
+    return min(np.abs(a - b).max(), np.abs(a + b).max()) <= rtol
+
+
+def _max_distance(F, pts1, pts2) -> float:
+    if F is None or not np.all(np.isfinite(F)) or not np.any(F):
+        return np.inf
+    d = epipolar_distances(F, pts1, pts2)
+    return float(np.nanmax(np.where(np.isfinite(d), d, np.inf)))
+
+
+def _mean_distance(F, pts1, pts2) -> float:
+    if F is None or not np.all(np.isfinite(F)) or not np.any(F):
+        return np.inf
+    d = epipolar_distances(F, pts1, pts2)
+    return float(np.mean(np.where(np.isfinite(d), d, np.inf)))
+
+
+def _rotation_angle_deg(Ra, Rb) -> float:
+    c = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def _angle_deg(u, v) -> float:
+    nu, nv = np.linalg.norm(u), np.linalg.norm(v)
+    if nu == 0 or nv == 0:
+        return 180.0
+    return float(np.degrees(np.arccos(np.clip(np.dot(u, v) / (nu * nv), -1.0, 1.0))))
+
+
+def _project(C, w) -> np.ndarray:
+    h = np.asarray(w, float) @ C[:, :3].T + C[:, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return h[:, :2] / h[:, 2:]
+
+
+# ----------------------------------------------------------------------------- Q2: F
+
+_SWAP = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _f_repairs(M: float):
+    """Maps undoing one mistake each: applied to the student's F, they give the intended F."""
+    T = np.diag([1.0 / M, 1.0 / M, 1.0])
+    return {
+        "f_transposed": lambda F: F.T,
+        "f_not_unscaled": lambda F: T @ F @ T,
+        "f_unscaled_wrong_way": lambda F: T @ T @ F @ T @ T,
+        "xy_swapped": lambda F: _SWAP @ F @ _SWAP,
+    }
+
+
+def fundamental_mistakes(F, pts1, pts2, M, tol_px: float = 0.01, statistic: str = "max") -> list[Mistake]:
+    """Known mistakes that explain why F misses exact matches.
+
+    Parameters
+    ----------
+    F : (3, 3) the student's fundamental matrix.
+    pts1, pts2 : (N, 2) matches, pixels (x, y); exact (noise-free) ones make the verdict sharp.
+    M : the scale the student was given (max of width and height).
+    tol_px : F fits when the ``statistic`` ("max" or "mean") of the distances of the x2 to
+        their lines F x1 is at most this.  For noisy matches use "mean" and a few pixels; a
+        repair must then also beat F itself.
+
+    Returns
+    -------
+    [] when F already fits or nothing in the catalogue explains it; otherwise the mistakes
+    (one, or a pair) whose undoing makes F fit.  Transposition, missing or inverted unscaling
+    and swapped x/y are tried alone, then in pairs.
+    """
+    if statistic not in ("max", "mean"):
+        raise ValueError(f"statistic: expected 'max' or 'mean', got {statistic!r}")
+    F = np.asarray(F, dtype=float)
+
+    def dist(G):
+        return _max_distance(G, pts1, pts2) if statistic == "max" else _mean_distance(G, pts1, pts2)
+
+    own = dist(F) if F.shape == (3, 3) else 0.0
+    if F.shape != (3, 3) or own <= tol_px:
+        return []
+    repairs = _f_repairs(float(M))
+    for size in (1, 2):
+        for codes in combinations(repairs, size):
+            if {"f_not_unscaled", "f_unscaled_wrong_way"} <= set(codes):
+                continue
+            G = F
+            for c in codes:
+                G = repairs[c](G)
+            d = dist(G)
+            if d <= tol_px and d < own:
+                ev = (f"undoing it, the {statistic} distance of the matches to their epipolar lines is "
+                      f"{d:.2g} px instead of {own:.3g} px")
+                return [mistake(c, ev) for c in codes]
+    return []
+
+
+def rank2_not_enforced(F, M: float = 1.0, rtol: float = 1e-6) -> Mistake | None:
+    """Mistake when F (3, 3) has full rank: its smallest singular value above ``rtol`` times the middle one.
+
+    The ratio is measured on diag(M, M, 1) F diag(M, M, 1), the F of the points divided by M,
+    where the singular values are of comparable size (pixel units squeeze them apart).
+    """
+    F = np.asarray(F, dtype=float)
+    if F.shape != (3, 3) or not np.all(np.isfinite(F)):
+        return None
+    S = np.diag([float(M), float(M), 1.0])
+    s = np.linalg.svd(S @ F @ S, compute_uv=False)
+    if s[1] == 0:
+        return None
+    ratio = s[2] / s[1]
+    return mistake("f_rank3", f"s3/s2 = {ratio:.2g}") if ratio > rtol else None
+
+
+def uint16_wraparound(F_uint16, F_float, rtol: float = 1e-6) -> Mistake | None:
+    """Mistake when the same points fitted as uint16 and as float give different F's.
+
+    Parameters
+    ----------
+    F_uint16 : (3, 3) F fitted on uint16 points (the data files' dtype).
+    F_float : (3, 3) F fitted on the same points cast to float64.
+
+    A correct fit depends on the values only; integer arithmetic that wraps around (differences
+    below 0, products above 65535) makes the uint16 fit differ.
+    """
+    A, B = np.asarray(F_uint16, float), np.asarray(F_float, float)
+    if A.shape != (3, 3) or B.shape != (3, 3) or _unit(B) is None:
+        return None
+    if _unit(A) is None or not same_up_to_scale(A, B, rtol):
+        return mistake("uint16_wraparound", "the same points as uint16 and as float give different F's")
+    return None
+
+
+# ----------------------------------------------------------------------------- Q3.1: E
+
+def essential_mistakes(E, F, K1, K2, rtol: float = 1e-6) -> list[Mistake]:
+    """The mistake whose formula gives the student's E, when it is not K2^T F K1.
+
+    Parameters
+    ----------
+    E : (3, 3) the student's essential matrix.  F : (3, 3) the F it was given.
+    K1, K2 : (3, 3) intrinsics of camera 1 and 2.
+
+    Formulas that coincide with the right one (K1 == K2 makes the order irrelevant) are not
+    reported.  Returns [] or a one-element list.
+    """
+    E, F, K1, K2 = (np.asarray(a, dtype=float) for a in (E, F, K1, K2))
+    if E.shape != (3, 3) or same_up_to_scale(E, K2.T @ F @ K1, rtol):
+        return []
+    right = K2.T @ F @ K1
+    inv1, inv2 = np.linalg.inv(K1), np.linalg.inv(K2)
+    candidates = [
+        ("e_k_order", "E = K1^T F K2", K1.T @ F @ K2),
+        ("e_missing_k", "E = F K1 (K2^T missing)", F @ K1),
+        ("e_missing_k", "E = K2^T F (K1 missing)", K2.T @ F),
+        ("e_missing_k", "E = F (both missing)", F),
+        ("e_missing_k", "E = K1^T F (K1 on the wrong side, K2 missing)", K1.T @ F),
+        ("e_missing_k", "E = F K2 (K2 on the wrong side, K1 missing)", F @ K2),
+        ("e_inverse_k", "E = K2^-T F K1^-1", inv2.T @ F @ inv1),
+        ("e_inverse_k", "E = K1^-T F K2^-1", inv1.T @ F @ inv2),
+        ("e_same_k", "E = K1^T F K1", K1.T @ F @ K1),
+        ("e_same_k", "E = K2^T F K2", K2.T @ F @ K2),
+        ("e_transposed", "E = K1^T F^T K2", right.T),
+    ]
+    for code, formula, G in candidates:
+        if not same_up_to_scale(G, right, rtol) and same_up_to_scale(E, G, rtol):
+            return [mistake(code, f"your E equals {formula} up to scale")]
+    return []
+
+
+# ----------------------------------------------------------------------------- Q3.2: err
+
+def error_not_sum_of_squares(err, res1, res2, rtol: float = 1e-4) -> Mistake | None:
+    """Mistake when ``err`` is not the sum of squared reprojection errors of both images.
+
+    Parameters
+    ----------
+    err : the error the student reported (a number).
+    res1, res2 : (N, 2) reprojection residuals x - proj(C, w) in image 1 and image 2, computed
+        from the student's own points w.
+
+    The evidence names the quantity err matches (a mean, a root, one image only...) when one does.
+    """
+    try:
+        e = float(np.asarray(err, dtype=float).reshape(()))
+    except (TypeError, ValueError):
+        return mistake("error_not_sum_of_squares", f"err should be one number, got {type(err).__name__}")
+    d1 = np.sum(np.asarray(res1, float) ** 2, axis=1)
+    d2 = np.sum(np.asarray(res2, float) ** 2, axis=1)
+    d = np.concatenate([d1, d2])
+    total = float(d.sum())
+    if np.isclose(e, total, rtol=rtol, atol=1e-9):
+        return None
+    n = len(d1)
+    variants = {
+         "the mean squared distance over observations": total / max(len(d), 1),
+         "the mean over points of both squared distances": total / max(n, 1),
+         "the square root of the sum of squares": np.sqrt(total),
+         "the sum of distances (not squared)": float(np.sqrt(d).sum()),
+        "the mean distance": float(np.sqrt(d).mean()) if len(d) else 0.0,
+        "the root mean square distance": float(np.sqrt(d.mean())) if len(d) else 0.0,
+        "half the sum of squares (scipy's cost)": total / 2,
+        "the sum of squares of image 1 only": float(d1.sum()),
+        "the sum of squares of image 2 only": float(d2.sum()),
+    }
+    for what, value in variants.items():
+        if np.isclose(e, value, rtol=rtol, atol=1e-9):
+            return mistake("error_not_sum_of_squares", f"err = {e:.6g} is {what}; the sum of squares is {total:.6g}")
+    return mistake("error_not_sum_of_squares", f"err = {e:.6g}, but your points give a sum of squares of {total:.6g}")
+
+
+# ----------------------------------------------------------------------------- Q3.3: M2
+
+def points_behind_cameras(w, M1, M2, max_share: float = 0.5) -> Mistake | None:
+    """Mistake when more than ``max_share`` of the points w (N, 3) are behind camera M1 or M2 (3x4)."""
+    w = np.asarray(w, dtype=float)
+    if w.ndim != 2 or w.shape[1] != 3 or len(w) == 0:
+        return None
+    z1 = w @ np.asarray(M1, float)[2, :3] + M1[2, 3]
+    z2 = w @ np.asarray(M2, float)[2, :3] + M2[2, 3]
+    behind = ~((z1 > 0) & (z2 > 0))
+    if behind.mean() > max_share:
+        return mistake("points_behind", f"{int(behind.sum())} of {len(w)} points have a negative depth")
+    return None
+
+
+def wrong_camera(M2, M2_true, tol_deg: float = 1.0) -> Mistake | None:
+    """Mistake when M2 (3x4) is one of the other three camera2 candidates of the true pose.
+
+    The candidates are those of ``starter.camera2`` for E = [t]x R of ``M2_true``; translations
+    are compared by direction, since E fixes t only up to scale.
+    """
+    M2, M2_true = np.asarray(M2, float), np.asarray(M2_true, float)
+    if M2.shape != (3, 4) or not np.all(np.isfinite(M2)):
+        return None
+    R, t = M2_true[:, :3], M2_true[:, 3]
+    tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
+    cands = camera2(tx @ R)
+    errs = [max(_rotation_angle_deg(M2[:, :3], cands[:, :3, i]), _angle_deg(M2[:, 3], cands[:, 3, i]))
+            for i in range(cands.shape[2])]
+    truth = [max(_rotation_angle_deg(R, cands[:, :3, i]), _angle_deg(t, cands[:, 3, i]))
+             for i in range(cands.shape[2])]
+    best, right = int(np.argmin(errs)), int(np.argmin(truth))
+    if errs[best] <= tol_deg and best != right:
+        rot = _rotation_angle_deg(M2[:, :3], R)
+        return mistake("wrong_camera", f"your M2 is another candidate: rotation {rot:.0f} deg away, "
+                                       f"t at {_angle_deg(M2[:, 3], t):.0f} deg from the true direction")
+    return None
+
+
+# ----------------------------------------------------------------------------- Q4.1: matches
+
+def points_xy_swapped(pts, pts_true, tol_px: float = 3.0) -> Mistake | None:
+    """Mistake when the points (N, 2) match pts_true (N, 2) far better with x and y exchanged."""
+    p, q = np.asarray(pts, float), np.asarray(pts_true, float)
+    if p.shape != q.shape or p.ndim != 2 or p.shape[1] != 2 or len(p) == 0:
+        return None
+    straight = np.mean(np.linalg.norm(p - q, axis=1) <= tol_px)
+    swapped = np.mean(np.linalg.norm(p[:, ::-1] - q, axis=1) <= tol_px)
+    if swapped >= 0.5 and swapped > 2 * straight:
+        return mistake("xy_swapped", f"{swapped:.0%} of the points are right once x and y are exchanged, "
+                                     f"{straight:.0%} as returned")
+    return None
+
+
+# ----------------------------------------------------------------------------- Q5: BA
+
+def residual_layout(res, res_expected, rtol: float = 1e-6) -> Mistake | None:
+    """Mistake when ``res`` holds the expected residual values (up to sign) in another order.
+
+    res, res_expected : (4N,) the student's residuals and the handout's
+    [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()] at the same x.
+    """
+    r, e = np.asarray(res, float).ravel(), np.asarray(res_expected, float).ravel()
+    if r.shape != e.shape:
+        return None
+    scale = max(np.abs(e).max(initial=0.0), 1e-12)
+    if min(np.abs(r - e).max(), np.abs(r + e).max()) <= rtol * scale:
+        return None
+    if np.allclose(np.sort(np.abs(r)), np.sort(np.abs(e)), rtol=rtol, atol=rtol * scale):
+        return mistake("residual_layout", "your residuals hold the right values in another order")
+    return None
+
+
+def ba_mistakes(o1, o2, t_init, t_final, rel_drop: float = 1e-9, min_scale: float = 0.2) -> list[Mistake]:
+    """Known bundle-adjustment failures.
+
+    Parameters
+    ----------
+    o1, o2 : the reprojection errors before and after, as the student's code reported or
+        as recomputed from its results.
+    t_init, t_final : (3,) camera 2's translation at the start and at the end.
+    rel_drop : o2 must be below o1 (1 - rel_drop).
+    min_scale : |t_final| below min_scale |t_init| is a collapse.
+    """
+    out = []
+    o1, o2 = float(o1), float(o2)
+    if not (np.isfinite(o2) and o2 < o1 * (1.0 - rel_drop)):
+        out.append(mistake("ba_not_decreasing", f"o1 = {o1:.6g}, o2 = {o2:.6g}"))
+    n0, n1 = np.linalg.norm(t_init), np.linalg.norm(t_final)
+    if n0 > 0 and np.isfinite(n1) and n1 < min_scale * n0:
+        out.append(mistake("ba_scale_collapse", f"|t| went from {n0:.3g} to {n1:.3g}"))
+    return out
+
+
+# ----------------------------------------------------------------------------- Q6: Thres
+
+def threshold_mistakes(P, P_true, conf, Thres, tol: float, step: float = 100.0) -> list[Mistake]:
+    """Threshold mistakes in a multiview reconstruction, on data built to reveal them.
+
+    Parameters
+    ----------
+    P : (N, 3) the student's points.  P_true : (N, 3) the true points.
+    conf : (N, V) confidences of the detections of each point in the V views.
+    Thres : the threshold the student was given.
+    tol : a point is right when within this distance of the truth (NaN is never right).
+    step : a detection with Thres < confidence <= Thres + step is "just above" the threshold.
+
+    The caller's data must make every detection with confidence <= Thres wrong by a clear
+    margin, every other one exact, and give every point at least two views above Thres.  Then:
+    points whose wrong detection sits exactly at Thres come out wrong with ``>=``; points with a
+    wrong detection below Thres come out wrong when the threshold is ignored; points that need a
+    detection just above Thres come out wrong or missing when the test is too strict.
+    """
+    P, P_true, conf = (np.asarray(a, float) for a in (P, P_true, conf))
+    if P.shape != P_true.shape or conf.ndim != 2 or conf.shape[0] != len(P):
+        return []
+    wrong = ~(np.linalg.norm(P - P_true, axis=1) <= tol)
+    just_above = np.any((conf > Thres) & (conf <= Thres + step), axis=1)
+    at = np.any(conf == Thres, axis=1) & ~np.any(conf < Thres, axis=1) & ~just_above
+    below = np.any(conf < Thres, axis=1) & ~np.any(conf == Thres, axis=1) & ~just_above
+
+    def share(mask):
+        return (int(wrong[mask].sum()), int(mask.sum())) if mask.any() else (0, 0)
+
+    # Ignoring the threshold also uses the detections at Thres: the wider mistake is named alone.
+    k, n = share(below)
+    if n and k > n / 2:
+        return [mistake("threshold_ignored", f"{k} of {n} points whose wrong detection is below "
+                                             "Thres came out wrong")]
+    k, n = share(at)
+    if n and k > n / 2:
+        return [mistake("threshold_inclusive", f"{k} of {n} points whose wrong detection has a "
+                                               "confidence of exactly Thres came out wrong")]
+    k, n = share(just_above)
+    if n and k > n / 2:
+        return [mistake("threshold_too_strict", f"{k} of {n} points that need a detection just above "
+                                                "Thres came out wrong or missing")]
+    return []

@@ -1,0 +1,198 @@
+"""What a public check returns and prints: one line per item, known mistakes named.
+
+A check calls the student's function through :func:`call`, which turns the ways a stub or a
+crash can end into a status instead of a traceback, and collects :class:`CheckItem` lines into
+a :class:`CheckReport`.  A check prints its report as plain text (aligned, and it survives a
+PDF export); a report displayed later in a notebook shows as an HTML table, and one returned
+by the cell that printed it is not shown a second time.
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from .mistakes import Mistake
+
+__all__ = ["DISCLAIMER", "NOT_IMPLEMENTED", "CheckItem", "CheckReport", "Outcome", "call"]
+
+NOT_IMPLEMENTED = "not implemented yet"
+DISCLAIMER = "These are public checks: passing them promises nothing about the hidden tests."
+_TICK, _CROSS, _SKIP = "\u2713", "\u2717", "-"
+
+
+@dataclass(frozen=True)
+class CheckItem:
+    """One line of a report.
+
+    name : what was checked, e.g. "rank 2 (noisy matches)".
+    passed : True, False, or None for an item that was not run (skipped, with ``value`` saying why).
+    value : the figure of merit measured ("s3/s2 = 2e-16"), or the error message.
+    goal : what it is compared with ("< 1e-6"), "" when the item has no figure.
+    mistakes : known mistakes recognised when the item failed.
+    """
+
+    name: str
+    passed: bool | None
+    value: str = ""
+    goal: str = ""
+    mistakes: tuple[Mistake, ...] = ()
+
+    def lines(self) -> list[str]:
+        mark = _SKIP if self.passed is None else (_TICK if self.passed else _CROSS)
+        text = f"  {mark} {self.name}"
+        figure = self.value + (f"   (goal {self.goal})" if self.goal else "")
+        if figure:
+            text = f"{text:<58} {figure}"
+        out = [text]
+        for m in self.mistakes:
+            out.append(f"      known mistake: {m.name}. {m.hint}")
+            if m.evidence:
+                out.append(f"        ({m.evidence})")
+        return out
+
+
+@dataclass
+class CheckReport:
+    """The result of one check.
+
+    title : the function checked, e.g. "eightpoint".
+    items : the CheckItem lines, in order.
+    notes : lines printed before the disclaimer (e.g. "default data not found, skipped").
+    passed : every item that ran passed, at least one ran, and the function is implemented.
+    """
+
+    title: str
+    items: list[CheckItem] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    # The notebook cell that printed the report, so that displaying the returned report in the
+    # same cell does not show it twice.
+    printed_in: int | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def passed(self) -> bool:
+        ran = [i for i in self.items if i.passed is not None]
+        return bool(ran) and all(i.passed for i in ran)
+
+    @property
+    def not_implemented(self) -> bool:
+        return any(i.value == NOT_IMPLEMENTED for i in self.items)
+
+    @property
+    def mistakes(self) -> list[Mistake]:
+        """Every known mistake recognised, each once, in the order found."""
+        seen: dict[str, Mistake] = {}
+        for item in self.items:
+            for m in item.mistakes:
+                seen.setdefault(m.code, m)
+        return list(seen.values())
+
+    def add(self, name: str, passed: bool | None, value: str = "", goal: str = "",
+            mistakes=()) -> bool | None:
+        self.items.append(CheckItem(name, None if passed is None else bool(passed), value, goal,
+                                    tuple(m for m in mistakes if m is not None)))
+        return passed
+
+    def text(self) -> str:
+        n_ran = sum(i.passed is not None for i in self.items)
+        n_ok = sum(bool(i.passed) for i in self.items)
+        if self.not_implemented:
+            head = f"check {self.title}: {NOT_IMPLEMENTED}"
+        else:
+            head = f"check {self.title}: {n_ok}/{n_ran} passed" + ("" if self.passed else "  <- see the crosses")
+        lines = [head]
+        for item in self.items:
+            lines.extend(item.lines())
+        lines.extend(f"  note: {n}" for n in self.notes)
+        lines.append(DISCLAIMER)
+        return "\n".join(lines)
+
+    __str__ = text
+
+    def __repr__(self) -> str:
+        state = NOT_IMPLEMENTED if self.not_implemented else ("passed" if self.passed else "failed")
+        return f"CheckReport({self.title}: {state}, {len(self.items)} items)"
+
+    def show(self) -> None:
+        """Print the report and remember the notebook cell (if any) it was printed in."""
+        print(self.text())
+        self.printed_in = _cell_number()
+
+    def _ipython_display_(self) -> None:
+        if self.printed_in is not None and self.printed_in == _cell_number():
+            return  # ``check_x(f)`` as a cell's last line: already printed just above
+        from IPython.display import display
+
+        display({"text/plain": self.text(), "text/html": self._repr_html_()}, raw=True)
+
+    def _repr_html_(self) -> str:
+        rows = []
+        for item in self.items:
+            mark, colour = ((_SKIP, "#888") if item.passed is None
+                            else (_TICK, "#1a7f37") if item.passed else (_CROSS, "#cf222e"))
+            hint = "".join(f"<br><b>known mistake: {html.escape(m.name)}.</b> {html.escape(m.hint)}"
+                           + (f" <i>({html.escape(m.evidence)})</i>" if m.evidence else "")
+                           for m in item.mistakes)
+            rows.append(f"<tr><td style='color:{colour};font-weight:bold'>{mark}</td>"
+                        f"<td style='text-align:left'>{html.escape(item.name)}{hint}</td>"
+                        f"<td style='text-align:left'>{html.escape(item.value)}</td>"
+                        f"<td style='text-align:left'>{html.escape(item.goal)}</td></tr>")
+        notes = "".join(f"<div>note: {html.escape(n)}</div>" for n in self.notes)
+        head = html.escape(self.text().splitlines()[0])
+        return (f"<div><b>{head}</b><table><tr><th></th><th>check</th><th>measured</th><th>goal</th></tr>"
+                f"{''.join(rows)}</table>{notes}<div><i>{html.escape(DISCLAIMER)}</i></div></div>")
+
+
+def _cell_number() -> int | None:
+    """The execution count of the running notebook cell, or None outside IPython."""
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return None
+    shell = get_ipython()
+    return None if shell is None else getattr(shell, "execution_count", None)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a call of the student's function ended.
+
+    status : "ok", "not implemented" (NotImplementedError raised, or None returned) or "error".
+    value : what it returned (status "ok").
+    message : one line "ExceptionType: message" (status "error").
+    """
+
+    status: str
+    value: Any = None
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def _is_empty(value) -> bool:
+    # A stub that returns None, or a tuple of Nones (``return None, None``), is not written yet.
+    if value is None:
+        return True
+    return isinstance(value, (tuple, list)) and len(value) > 0 and all(v is None for v in value)
+
+
+def call(fn: Callable, *args, **kwargs) -> Outcome:
+    """Run the student's ``fn(*args, **kwargs)`` and report how it ended, never raising."""
+    if not callable(fn):
+        return Outcome("error", message=f"expected a function, got {type(fn).__name__}")
+    try:
+        value = fn(*args, **kwargs)
+    except NotImplementedError:
+        return Outcome("not implemented")
+    except Exception as exc:  # noqa: BLE001 - any failure of student code is reported as one line
+        text = " ".join(str(exc).split())
+        if len(text) > 200:
+            text = text[:197] + "..."
+        return Outcome("error", message=f"{type(exc).__name__}: {text}" if text else type(exc).__name__)
+    if _is_empty(value):
+        return Outcome("not implemented")
+    return Outcome("ok", value)
