@@ -463,6 +463,8 @@ class Sandbox:
             return fd - 1
 
         lib_fd = keep(self._lib) if self._private_tmp else None
+        # A Python under /tmp (a virtual environment made there) must survive the private /tmp.
+        tmp_python = [(keep(p), p) for p in _python_dirs_in_private_tmp()] if self._private_tmp else []
         reach = _unreachable_python_dirs() if self._uid is not None else {}
         reach_fds = {top: [(keep(p), p) for p in paths] for top, paths in reach.items()}
 
@@ -474,9 +476,13 @@ class Sandbox:
             else:
                 lines.append(f"mount --bind /dev/null {q(str(p))}")
         if self._private_tmp:
-            for d in ("/tmp", "/var/tmp", "/dev/shm"):
+            for d in _PRIVATE_TMP_DIRS:
                 if os.path.isdir(d):
                     lines.append(f"mount -t tmpfs -o nosuid,nodev,size={self.limits.tmp_bytes},mode=1777 tmpfs {d}")
+        for kfd, p in tmp_python:
+            lines.append(f"mkdir -p {q(str(p))}")
+            lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{kfd} {q(str(p))}")
+            lines.append(f"mount -o remount,bind,ro {q(str(p))}")
         for top, kept in reach_fds.items():
             lines.append(f"mount -t tmpfs -o nosuid,nodev,size=64k,mode=0755 tmpfs {q(str(top))}")
             for kfd, p in kept:
@@ -969,22 +975,34 @@ def _pick_uid(start: int = 60000, span: int = 4000) -> int:
     raise RuntimeError(f"no free uid between {start} and {start + span}")
 
 
-def _unreachable_python_dirs() -> dict[Path, list[Path]]:
-    """Folders of this Python that another uid cannot reach, grouped by the top folder blocking them.
+_PRIVATE_TMP_DIRS = ("/tmp", "/var/tmp", "/dev/shm")
 
-    Python may live under a private folder (pyenv under /root); the sandbox then covers that
-    top folder with a tmpfs and binds these folders back at the same paths, read-only.
-    """
+
+def _python_dirs() -> set[Path]:
+    """The outermost folders this Python (its prefix, a virtual environment, site-packages) lives in."""
     wanted = {Path(sys.base_prefix), Path(sys.prefix), Path(os.path.realpath(sys.executable)).parent}
     try:
         wanted.update(Path(p) for p in site.getsitepackages())
     except AttributeError:
         pass
     wanted = {p.resolve() for p in wanted if p.exists()}
-    # Keep only the outermost folders.
-    wanted = {p for p in wanted if not any(q != p and q in p.parents for q in wanted)}
+    return {p for p in wanted if not any(q != p and q in p.parents for q in wanted)}
+
+
+def _python_dirs_in_private_tmp() -> list[Path]:
+    """Python folders that the private /tmp would cover (a virtual environment made under /tmp, say)."""
+    return sorted(p for p in _python_dirs()
+                  if any(Path(d) in p.parents for d in _PRIVATE_TMP_DIRS if os.path.isdir(d)))
+
+
+def _unreachable_python_dirs() -> dict[Path, list[Path]]:
+    """Folders of this Python that another uid cannot reach, grouped by the top folder blocking them.
+
+    Python may live under a private folder (pyenv under /root); the sandbox then covers that
+    top folder with a tmpfs and binds these folders back at the same paths, read-only.
+    """
     out: dict[Path, list[Path]] = {}
-    for p in sorted(wanted):
+    for p in sorted(_python_dirs()):
         for anc in reversed(p.parents):
             if anc == Path("/"):
                 continue
