@@ -3,6 +3,7 @@
   run        the whole pipeline with the reference solutions on a data folder (the main job)
   data       regenerate the default data/ from the seeded scene generator
   notebooks  build the student notebooks, the answer key and the nbgrader source from solutions/
+  release    write the student release (no solutions, no answer key, no autograder)
   pdf        a student's notebooks -> one Gradescope-ready PDF (and the code bundle)
 """
 
@@ -13,7 +14,12 @@ import sys
 
 
 def _run(args) -> int:
-    from .pipeline import run
+    try:
+        from .pipeline import run
+    except ImportError:  # the student release has no reference solutions to run
+        print("error: `run` needs the reference solutions, which the student release does not include",
+              file=sys.stderr)
+        return 2
 
     run(args.data, args.out, seed=args.seed, tol=args.tol)
     return 0
@@ -43,7 +49,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", default=None, help="folder to write (default: the kit's data/)")
     p.set_defaults(func=_data)
 
-    for module in ("notebooks", "pdf"):
+    for module in ("notebooks", "release", "pdf"):
         try:
             mod = __import__(f"kit.{module}", fromlist=["add_cli"])
         except ImportError:

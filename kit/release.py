@@ -1,0 +1,325 @@
+"""The student release: what students download or clone, and nothing that gives an answer away.
+
+``python -m kit release --out DIR`` writes
+
+    starter/  scenes/  data/           the helpers, the public checks, the scene generator, the data
+    kit/                               only the student commands (pdf export, code bundle, manifest)
+    notebooks/<stem>.ipynb             the student notebooks, as committed (checked against a build)
+    requirements.txt  pyproject.toml   so that ``pip install -r requirements.txt`` or ``pip install -e .`` works
+    README.md                          a short guide for students
+
+and never solutions/, autograder/, tests/, benchmarks/, notebooks/key/, notebooks/nbgrader/,
+notebooks/src/ or data/official/.  Before returning it scans what it wrote (:func:`leaks`): a
+Python file or notebook that imports ``solutions`` or holds the body of a reference function
+stops the release with an error naming the file.
+"""
+
+from __future__ import annotations
+
+import ast
+import shutil
+from pathlib import Path
+
+import nbformat
+
+from kit.manifest import NOTEBOOKS, QUESTIONS
+
+__all__ = ["RELEASE_TOP", "STUDENT_KIT_FILES", "leaks", "reference_bodies", "write_release"]
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+
+# The kit/ modules students run (python -m kit pdf); the rest of kit/ is for instructors and
+# reads solutions/.
+STUDENT_KIT_FILES = ("__init__.py", "__main__.py", "manifest.py", "bundle.py", "pdf.py", "pdf_assets")
+# Everything the release writes at its top level (and all that --force may replace).
+RELEASE_TOP = ("starter", "scenes", "data", "kit", "notebooks", "requirements.txt", "pyproject.toml",
+               "README.md", ".gitignore")
+_SKIP_NAMES = {"__pycache__", ".ipynb_checkpoints", ".DS_Store", ".pytest_cache"}
+_SKIP_SUFFIXES = {".pyc", ".pyo"}
+# Dropped-in course files stay with the instructor (the README of course-data says why).
+_DATA_EXCLUDE = {"official"}
+
+_PYPROJECT = """\
+[build-system]
+requires = ["setuptools>=68"]
+build-backend = "setuptools.build_meta"
+
+[project]
+name = "hw4-student-kit"
+version = "{version}"
+description = "Homework 4 (two-view 3D reconstruction): helpers, public checks, data and notebooks."
+requires-python = ">=3.10"
+dynamic = ["dependencies"]
+
+[tool.setuptools]
+packages = ["starter", "starter.checks", "scenes", "kit"]
+
+[tool.setuptools.dynamic]
+dependencies = {{ file = ["requirements.txt"] }}
+
+[tool.setuptools.package-data]
+kit = ["pdf_assets/*", "pdf_assets/*/*"]
+"""
+
+_GITIGNORE = "__pycache__/\n*.pyc\n.ipynb_checkpoints/\n*.egg-info/\nhw4.pdf\nhw4_code.zip\n"
+
+
+def _readme(settings) -> str:
+    order = "\n".join(f"{k}. `notebooks/{stem}.ipynb`: " + "; ".join(
+        f"{q.id} {q.title} ({q.points} points{', extra credit' if q.extra_credit else ''})"
+        for q in QUESTIONS if q.notebook == stem) for k, stem in enumerate(NOTEBOOKS, start=1))
+    colab = ("" if settings.is_placeholder else
+             f"\nOn Colab: open a notebook from {settings.repo_url} (each notebook has an \"Open in Colab\" "
+             "link); its first cell downloads this kit. Later notebooks load your functions from earlier "
+             "ones, so upload your finished earlier notebooks to the Colab session (Files panel).\n")
+    return f"""\
+# Homework 4: two-view 3D reconstruction
+
+One notebook per problem, to do in order (later notebooks reuse your functions from earlier ones):
+
+{order}
+
+## Setting up
+
+On your own machine (Python 3.10 or later):
+
+```
+pip install -e .            # or: pip install -r requirements.txt
+jupyter lab notebooks/
+```
+{colab}
+Run each notebook's first cell before anything else. Keep the six notebooks together in
+`notebooks/`.
+
+## What is here
+
+- `starter/`: the helpers the homework gives you (`refineF`, `camera2`, `ransacF`, `rodrigues`,
+  `invRodrigues`, data loading, figures) and the public self-checks the notebooks call.
+- `data/`: the temple pair (`data/temple/`) and the car sequence (`data/q6/`). Set the environment
+  variable `HW4_DATA` to use another folder with the same layout.
+- `scenes/`: the generator that made this data.
+- `kit/`: the commands below.
+
+The self-checks are a help, not the grade: passing them promises nothing about the hidden tests.
+
+## Handing in
+
+Write your name in `STUDENT_NAME` in the first cell, run every notebook top to bottom, save, then
+
+```
+python -m kit pdf notebooks/ --out hw4.pdf --bundle hw4_code.zip
+```
+
+Submit `hw4.pdf` (mark the pages of each question on Gradescope) and `hw4_code.zip`.
+"""
+
+
+def _copy_tree(src: Path, dst: Path, exclude_top: set[str] = frozenset()) -> None:
+    def ignore(folder, names):
+        skip = {n for n in names if n in _SKIP_NAMES or Path(n).suffix in _SKIP_SUFFIXES}
+        if Path(folder) == src:
+            skip |= {n for n in names if n in exclude_top}
+        return skip
+
+    shutil.copytree(src, dst, ignore=ignore)
+
+
+def reference_bodies(solutions_dir: Path | None = None) -> dict[str, str]:
+    """``module.function`` -> ast dump of its body without the docstring, for every function of solutions/."""
+    solutions_dir = Path(solutions_dir) if solutions_dir is not None else KIT_ROOT / "solutions"
+    out = {}
+    for path in sorted(solutions_dir.glob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                body = node.body
+                if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+                        and isinstance(body[0].value.value, str):
+                    body = body[1:]
+                if body:
+                    out[f"{path.stem}.{node.name}"] = _dump_body(body)
+    return out
+
+
+def _dump_body(stmts) -> str:
+    return "\n".join(ast.dump(s) for s in stmts)
+
+
+def _python_sources(path: Path) -> list[str]:
+    if path.suffix == ".py":
+        return [path.read_text(encoding="utf-8")]
+    nb = nbformat.read(path, as_version=4)
+    return [c.source for c in nb.cells if c.cell_type == "code"]
+
+
+def leaks(folder, solutions_dir: Path | None = None) -> list[str]:
+    """Problems with the files under ``folder``: imports of ``solutions`` and reference bodies.
+
+    Every ``.py`` file and every notebook's code cells are parsed; a function whose body is
+    the body of a reference function (same ast) is reported, as is any ``import solutions``,
+    ``from solutions...`` or ``importlib.import_module("solutions...")``.  A file that does
+    not parse is reported too, since it could not be checked.
+    """
+    bodies = {dump: name for name, dump in reference_bodies(solutions_dir).items()}
+    problems = []
+    for path in sorted(Path(folder).rglob("*")):
+        if path.suffix not in (".py", ".ipynb") or not path.is_file():
+            continue
+        rel = path.relative_to(folder)
+        try:
+            sources = _python_sources(path)
+        except Exception as exc:  # noqa: BLE001 - any unreadable notebook is reported, not fatal
+            problems.append(f"{rel}: not readable ({exc})")
+            continue
+        for k, text in enumerate(sources, start=1):
+            where = f"{rel}" + (f", code cell {k}" if path.suffix == ".ipynb" else "")
+            try:
+                tree = ast.parse(_strip_magics(text))
+            except SyntaxError as exc:
+                problems.append(f"{where}: does not parse ({exc.msg}), so it could not be checked")
+                continue
+            for node in ast.walk(tree):
+                if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "solutions" for a in node.names):
+                    problems.append(f"{where}: imports solutions")
+                elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "solutions" \
+                        and node.level == 0:
+                    problems.append(f"{where}: imports from solutions")
+                elif isinstance(node, ast.Constant) and isinstance(node.value, str) \
+                        and node.value.split(".")[0] == "solutions" and node.value.replace(".", "").isidentifier():
+                    problems.append(f"{where}: names the module {node.value!r}")
+                elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    body = node.body[1:] if (node.body and isinstance(node.body[0], ast.Expr)
+                                             and isinstance(node.body[0].value, ast.Constant)) else node.body
+                    hit = bodies.get(_dump_body(body))
+                    if hit:
+                        problems.append(f"{where}: {node.name} has the body of the reference {hit}")
+    return problems
+
+
+def _strip_magics(text: str) -> str:
+    return "\n".join("" if line.lstrip().startswith(("%", "!")) else line for line in text.splitlines())
+
+
+def _student_notebooks(notebooks_dir: Path) -> list[Path]:
+    """The committed student notebooks, each checked against a fresh build with its own settings."""
+    from kit.notebooks import build_notebook, settings_of
+
+    paths = []
+    for stem in NOTEBOOKS:
+        path = notebooks_dir / f"{stem}.ipynb"
+        if not path.exists():
+            raise FileNotFoundError(f"missing {path}: build the notebooks first (python -m kit notebooks)")
+        nb = nbformat.read(path, as_version=4)
+        variant = nb.metadata.get("hw4_kit", {}).get("variant")
+        if variant != "student":
+            raise ValueError(f"{path}: expected a student notebook, its metadata says {variant!r}")
+        fresh = build_notebook(stem, "student", settings_of(nb))
+        if nbformat.writes(fresh) != nbformat.writes(nb):
+            raise ValueError(f"{path} differs from its source: rebuild it (python -m kit notebooks)")
+        paths.append(path)
+    return paths
+
+
+def _version() -> str:
+    import re
+
+    text = (KIT_ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    m = re.search(r'^version\s*=\s*"([^"]+)"', text, flags=re.MULTILINE)
+    return m.group(1) if m else "0.0.0"
+
+
+def write_release(out, *, data=None, force: bool = False) -> list[Path]:
+    """Write the student release into ``out``; return the files written.
+
+    Parameters
+    ----------
+    out : str or Path
+        Target folder.  It must be outside the kit, and empty or absent unless ``force``.
+    data : str or Path, optional
+        Data folder to ship (official layout: temple/, q6/); default: the kit's data/.
+    force : bool
+        Replace the release's own top-level entries (:data:`RELEASE_TOP`) in a non-empty ``out``;
+        other files there are left alone.
+
+    Raises
+    ------
+    ValueError
+        When ``out`` is inside the kit (or holds it), is not empty without ``force``, when a
+        committed student notebook is out of date, or when the written files leak an answer
+        (the message lists them; the release is then removed).
+    FileNotFoundError
+        When the data folder or a student notebook is missing.
+    """
+    from kit.notebooks import load_settings
+
+    out = Path(out).resolve()
+    kit = KIT_ROOT.resolve()
+    if out == kit or kit in out.parents or out in kit.parents:
+        raise ValueError(f"out: expected a folder outside the kit ({kit}), got {out}")
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"out: expected a folder, got the file {out}")
+    if out.exists() and any(out.iterdir()):
+        if not force:
+            raise ValueError(f"out: expected an empty or new folder, {out} holds files (use --force to replace "
+                             f"the release's own entries: {', '.join(RELEASE_TOP)})")
+        for name in RELEASE_TOP:
+            target = out / name
+            if target.is_dir():
+                shutil.rmtree(target)
+            elif target.exists():
+                target.unlink()
+    data = Path(data) if data is not None else kit / "data"
+    if not (data / "temple").is_dir():
+        raise FileNotFoundError(f"data: expected the homework data in {data} (temple/, q6/); "
+                                "write it with python -m kit data")
+    notebooks = _student_notebooks(kit / "notebooks")
+
+    out.mkdir(parents=True, exist_ok=True)
+    _copy_tree(kit / "starter", out / "starter")
+    _copy_tree(kit / "scenes", out / "scenes")
+    _copy_tree(data, out / "data", exclude_top=_DATA_EXCLUDE)
+    (out / "kit").mkdir()
+    for name in STUDENT_KIT_FILES:
+        src = kit / "kit" / name
+        if src.is_dir():
+            _copy_tree(src, out / "kit" / name)
+        else:
+            shutil.copy2(src, out / "kit" / name)
+    (out / "notebooks").mkdir()
+    for path in notebooks:
+        shutil.copy2(path, out / "notebooks" / path.name)
+    shutil.copy2(kit / "requirements.txt", out / "requirements.txt")
+    (out / "pyproject.toml").write_text(_PYPROJECT.format(version=_version()), encoding="utf-8")
+    (out / "README.md").write_text(_readme(load_settings()), encoding="utf-8")
+    (out / ".gitignore").write_text(_GITIGNORE, encoding="utf-8")
+
+    problems = leaks(out)
+    if problems:
+        for name in RELEASE_TOP:
+            target = out / name
+            if target.is_dir():
+                shutil.rmtree(target)
+            elif target.exists():
+                target.unlink()
+        raise ValueError("the release would give answers away, so it was removed:\n  " + "\n  ".join(problems))
+    return sorted(p for p in out.rglob("*") if p.is_file())
+
+
+def _cli(args) -> int:
+    files = write_release(args.out, data=args.data, force=args.force)
+    size = sum(p.stat().st_size for p in files) / 2**20
+    print(f"wrote the student release to {Path(args.out).resolve()}: {len(files)} files, {size:.1f} MB")
+    print("contents: " + ", ".join(sorted({p.relative_to(Path(args.out).resolve()).parts[0] for p in files})))
+    return 0
+
+
+def add_cli(subparsers) -> None:
+    """Register ``python -m kit release``."""
+    p = subparsers.add_parser(
+        "release", help="write the student release (no solutions, key, autograder or tests)",
+        description="Write what students get: starter/, scenes/, data/, the student notebooks, the student "
+                    "commands of kit/, requirements.txt, a minimal pyproject.toml and a README.")
+    p.add_argument("--out", required=True, help="folder to write (outside the kit; new or empty)")
+    p.add_argument("--data", default=None, help="data folder to ship (default: the kit's data/)")
+    p.add_argument("--force", action="store_true", help="replace a previous release in --out")
+    p.set_defaults(func=_cli)

@@ -1,0 +1,209 @@
+"""Reuse your answers from an earlier notebook, and run unfinished work without crashing.
+
+Problems 3 to 5 need functions written in earlier notebooks (``eightpoint`` in Q2, ``findM2`` and
+``triangulate`` in Q3).  Rather than copying them, a later notebook loads them from its sibling:
+
+>>> eightpoint = from_notebook("q2_eightpoint.ipynb", "eightpoint")          # doctest: +SKIP
+>>> findM2, triangulate = from_notebook("q3_metric_reconstruction.ipynb",
+...                                     "findM2", "triangulate")           # doctest: +SKIP
+
+Only the definitions of that notebook run: its top-level ``import`` statements, ``def`` and
+``class`` blocks, and ``name = from_notebook(...)`` lines (so chains work).  Figures, data
+loading and every other statement are skipped, so loading is quick and has no side effects.
+The notebook is looked up beside the running one (the current folder), so the answer key's
+notebooks load the answer key's siblings and yours load yours.
+
+:func:`try_run` calls a function and turns ``NotImplementedError`` into a one-line note, so a
+notebook whose stubs are not written yet still runs from top to bottom.
+"""
+
+from __future__ import annotations
+
+import ast
+import builtins
+import linecache
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+__all__ = ["from_notebook", "notebook_definitions", "try_run"]
+
+# Notebooks being loaded right now, to report a cycle instead of recursing forever.
+_LOADING: list[Path] = []
+
+
+def _resolve(notebook, folder) -> Path:
+    if not isinstance(notebook, (str, os.PathLike)):
+        raise ValueError(f"notebook: expected a file name such as 'q2_eightpoint.ipynb', got {notebook!r}")
+    path = Path(notebook).expanduser()
+    if path.suffix != ".ipynb":
+        raise ValueError(f"notebook: expected a .ipynb file name, got {str(notebook)!r}")
+    if not path.is_absolute():
+        if folder is None:
+            # A from_notebook line inside a notebook being loaded means that notebook's folder.
+            folder = _LOADING[-1].parent if _LOADING else Path.cwd()
+        path = Path(folder) / path
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"notebook: {path.name} not found in {path.parent}. Keep your homework notebooks in one "
+            f"folder; on Colab, upload your {path.name} with the Files panel (it goes to "
+            f"{path.parent}), or paste the function into a cell of this notebook instead.")
+    return path.resolve()
+
+
+def _python_source(cell: str) -> str:
+    # Magics and shell escapes (%matplotlib, !pip) are IPython syntax, not Python.
+    try:
+        from IPython.core.inputtransformer2 import TransformerManager
+    except ImportError:
+        return "\n".join("" if line.lstrip().startswith(("%", "!")) else line for line in cell.splitlines())
+    return TransformerManager().transform_cell(cell)
+
+
+def _is_from_notebook_call(node: ast.expr) -> bool:
+    if not isinstance(node, ast.Call):
+        return False
+    f = node.func
+    return (isinstance(f, ast.Name) and f.id == "from_notebook") or \
+        (isinstance(f, ast.Attribute) and f.attr == "from_notebook")
+
+
+def _kept(node: ast.stmt) -> bool:
+    if isinstance(node, ast.ImportFrom) and node.module == "__future__":
+        return False  # only legal at the top of a file; the definitions do not need it
+    if isinstance(node, (ast.Import, ast.ImportFrom, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+        return True
+    return isinstance(node, ast.Assign) and _is_from_notebook_call(node.value)
+
+
+def notebook_definitions(notebook, folder=None) -> list[tuple[str, ast.stmt, str]]:
+    """The statements :func:`from_notebook` would run, without running them.
+
+    Parameters
+    ----------
+    notebook : str or Path
+        A ``.ipynb`` file, relative to ``folder`` (default: the current folder).
+    folder : str or Path, optional
+
+    Returns
+    -------
+    list of (origin, statement, cell_source)
+        ``origin`` is "<name>.ipynb, cell k" (k counts all cells from 1), ``statement`` the
+        parsed top-level statement and ``cell_source`` the Python text of its cell.
+    """
+    import nbformat
+
+    path = _resolve(notebook, folder)
+    try:
+        nb = nbformat.read(path, as_version=4)
+    except Exception as exc:  # noqa: BLE001 - nbformat raises many kinds for a bad file
+        raise ValueError(f"notebook: {path.name} is not a readable notebook ({exc})") from None
+    out = []
+    for k, cell in enumerate(nb.cells, start=1):
+        if cell.cell_type != "code" or not cell.source.strip():
+            continue
+        text = _python_source(cell.source)
+        try:
+            tree = ast.parse(text)
+        except SyntaxError as exc:
+            import warnings
+
+            warnings.warn(f"{path.name}, cell {k}: syntax error (line {exc.lineno}: {exc.msg}); "
+                          "its definitions are not loaded", stacklevel=3)
+            continue
+        out += [(f"{path.name}, cell {k}", node, text) for node in tree.body if _kept(node)]
+    return out
+
+
+def from_notebook(notebook, *names: str, folder=None):
+    """Load functions (or classes) defined in another notebook.
+
+    Parameters
+    ----------
+    notebook : str or Path
+        The notebook file, e.g. ``"q2_eightpoint.ipynb"``; a relative name is looked up in
+        ``folder`` (default: the current folder, which in Jupyter and Colab is the folder of
+        the running notebook).
+    *names : str
+        The names to return, at least one.
+    folder : str or Path, optional
+        Where to look instead of the current folder.
+
+    Returns
+    -------
+    object or tuple
+        The single object when one name is asked for, else a tuple in the order of ``names``.
+        Each call reads the notebook again, so a saved change is picked up.
+
+    Raises
+    ------
+    FileNotFoundError
+        When the notebook is not there (the message says what to do on Colab).
+    ImportError
+        When the notebook does not define one of ``names`` (the message lists what it does
+        define), or when notebooks load each other in a cycle.
+    ValueError
+        When no name is given or ``notebook`` is not a ``.ipynb`` file name.
+    """
+    if not names:
+        raise ValueError("names: expected at least one name to load, e.g. from_notebook(nb, 'eightpoint'), got none")
+    for n in names:
+        if not isinstance(n, str) or not n.isidentifier():
+            raise ValueError(f"names: expected Python identifiers, got {n!r}")
+    path = _resolve(notebook, folder)
+    if path in _LOADING:
+        chain = " -> ".join(p.name for p in _LOADING + [path])
+        raise ImportError(f"notebook: notebooks load each other in a cycle ({chain})")
+    namespace: dict[str, Any] = {"__name__": f"notebook_{path.stem}", "__builtins__": builtins}
+    _LOADING.append(path)
+    try:
+        for origin, node, text in notebook_definitions(path):
+            # Registered so that a traceback through the loaded code shows its lines.
+            linecache.cache[origin] = (len(text), None, text.splitlines(True), origin)
+            code = compile(ast.Module(body=[node], type_ignores=[]), origin, "exec")
+            try:
+                exec(code, namespace)  # noqa: S102 - the student's own definitions, in their own kernel
+            except Exception as exc:
+                if hasattr(exc, "add_note"):
+                    exc.add_note(f"(while loading the definitions of {origin}, line {node.lineno})")
+                raise
+    finally:
+        _LOADING.pop()
+    missing = [n for n in names if n not in namespace]
+    if missing:
+        defined = sorted(k for k, v in namespace.items() if not k.startswith("__") and callable(v))
+        raise ImportError(f"names: {path.name} defines no {', '.join(missing)} in a def/import cell "
+                          f"(it defines: {', '.join(defined) or 'nothing'})")
+    values = tuple(namespace[n] for n in names)
+    return values[0] if len(values) == 1 else values
+
+
+def try_run(fn: Callable, *args, **kwargs):
+    """``fn(*args, **kwargs)``, or None with a one-line note when something is not implemented yet.
+
+    Only ``NotImplementedError`` (what the stubs raise) is caught; every other error is a real
+    bug and is raised as usual.  The note names the function whose stub raised, which may be
+    one called by ``fn`` (a check, or a function loaded from an earlier notebook).
+
+    Examples
+    --------
+    >>> def stub(x):
+    ...     raise NotImplementedError()
+    >>> try_run(stub, 1) is None
+    stub: not implemented yet, so this step is skipped.
+    True
+    """
+    if not callable(fn):
+        raise ValueError(f"fn: expected a function, got {type(fn).__name__}")
+    try:
+        return fn(*args, **kwargs)
+    except NotImplementedError as exc:
+        tb = exc.__traceback__
+        while tb is not None and tb.tb_next is not None:
+            tb = tb.tb_next
+        culprit = tb.tb_frame.f_code.co_name if tb is not None else getattr(fn, "__name__", "this step")
+        caller = getattr(fn, "__name__", None)
+        after = f" ({caller} skipped)" if caller and caller != culprit else ""
+        print(f"{culprit}: not implemented yet, so this step is skipped{after}.")
+        return None
