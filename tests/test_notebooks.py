@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import json
+import os
 import re
 from pathlib import Path
 
@@ -580,10 +581,43 @@ def homework_data(tmp_path_factory):
     return out
 
 
-def execute(path: Path, data: Path, monkeypatch, *, allow_errors: bool = False) -> nbformat.NotebookNode:
+# requirements-dev.txt names -> the modules they install.  The notebooks must run without them
+# (students install requirements.txt only), so the kernels below see each as missing.
+DEV_ONLY_MODULES = {"pytest": "pytest", "opencv-python-headless": "cv2", "jupyterlab": "jupyterlab",
+                    "playwright": "playwright", "nbgrader": "nbgrader"}
+
+
+def _requirement_names(path: Path) -> set[str]:
+    names = set()
+    for line in path.read_text().splitlines():
+        line = line.split("#")[0].strip()
+        if line and not line.startswith("-"):
+            names.add(re.split(r"[<>=!~\[ ;]", line)[0].lower())
+    return names
+
+
+def test_every_dev_only_requirement_is_hidden_from_the_notebook_kernels():
+    dev_only = _requirement_names(KIT_ROOT / "requirements-dev.txt") - _requirement_names(KIT_ROOT / "requirements.txt")
+    assert dev_only <= set(DEV_ONLY_MODULES)
+
+
+@pytest.fixture(scope="session")
+def without_dev_packages(tmp_path_factory) -> Path:
+    """A folder of stand-in modules that raise ImportError, put first on the kernels' path."""
+    folder = tmp_path_factory.mktemp("no-dev-packages")
+    for module in DEV_ONLY_MODULES.values():
+        (folder / f"{module}.py").write_text(
+            f"raise ImportError('{module} is a development dependency, not in requirements.txt')\n")
+    return folder
+
+
+def execute(path: Path, data: Path, monkeypatch, *, allow_errors: bool = False,
+            hide: Path | None = None) -> nbformat.NotebookNode:
     from nbclient import NotebookClient
 
     monkeypatch.setenv("HW4_DATA", str(data))
+    if hide is not None:
+        monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(hide), os.environ.get("PYTHONPATH", "")]))
     monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
     nb = nbformat.read(path, as_version=4)
     # A per-cell limit: a hang fails the test instead of stalling the suite.
@@ -598,8 +632,8 @@ def outputs_text(cell) -> str:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("stem", NOTEBOOKS)
-def test_answer_key_runs_and_keeps_every_figure_as_png(stem, homework_data, monkeypatch):
-    nb = execute(nbk.output_path(stem, "key"), homework_data, monkeypatch)
+def test_answer_key_runs_and_keeps_every_figure_as_png(stem, homework_data, monkeypatch, without_dev_packages):
+    nb = execute(nbk.output_path(stem, "key"), homework_data, monkeypatch, hide=without_dev_packages)
     figures = [c for c in nb.cells if "figure" in c.metadata.get("tags", [])]
     assert figures or stem == "q1_proofs"
     for cell in figures:
@@ -613,8 +647,8 @@ def test_answer_key_runs_and_keeps_every_figure_as_png(stem, homework_data, monk
 
 @pytest.mark.slow
 @pytest.mark.parametrize("stem", NOTEBOOKS)
-def test_student_notebook_runs_with_stubs(stem, homework_data, monkeypatch):
-    nb = execute(nbk.output_path(stem, "student"), homework_data, monkeypatch)
+def test_student_notebook_runs_with_stubs(stem, homework_data, monkeypatch, without_dev_packages):
+    nb = execute(nbk.output_path(stem, "student"), homework_data, monkeypatch, hide=without_dev_packages)
     text = "\n".join(outputs_text(c) for c in nb.cells if c.cell_type == "code")
     for name in functions_of_notebook(stem):
         if name != "plot_3d_keypoint_video":
