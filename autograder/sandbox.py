@@ -254,6 +254,7 @@ class Sandbox:
         self._jobs = 0
         self._swept = 0
         self._uid: int | None = None
+        self._uid_fd: int | None = None
         self._base = Path(tempfile.mkdtemp(prefix="hw4-sandbox-"))
         try:
             os.chmod(self._base, 0o711)  # traversable, not listable: the lib folder must be reachable
@@ -271,10 +272,7 @@ class Sandbox:
     def close(self) -> None:
         """Remove the sandbox's files and free its uid."""
         shutil.rmtree(self._base, ignore_errors=True)
-        if self._uid is not None:
-            with Sandbox._uids_lock:
-                Sandbox._uids_in_use.discard(self._uid)
-            self._uid = None
+        self._release_uid()
 
     def __enter__(self) -> Sandbox:  # noqa: PYI034 - Self needs Python 3.11
         return self
@@ -576,6 +574,10 @@ class Sandbox:
         root = os.geteuid() == 0
         if level == "namespaces" and not root:
             return "the grader is not root"
+        if level == "user-namespaces" and root:
+            # Mapped to root inside, the code would keep the grader's real uid: never choose it
+            # silently when a real unprivileged uid is available at the basic level.
+            return "the grader is root, so the code would run as root"
         if level != "basic":
             for tool in ("unshare", "mount") + (("setpriv",) if level == "namespaces" else ()):
                 if shutil.which(tool) is None:
@@ -587,7 +589,10 @@ class Sandbox:
             notes.append("basic: Python is installed under a private folder, so the code keeps the grader's uid")
             want_uid = False
         if want_uid:
-            self._uid = uid if uid is not None else _pick_uid()
+            if uid is not None:
+                self._uid = uid
+            else:
+                self._uid, self._uid_fd = _pick_uid()
             with Sandbox._uids_lock:
                 Sandbox._uids_in_use.add(self._uid)
         self.isolation = self._isolation(level, ())
@@ -598,6 +603,9 @@ class Sandbox:
             with Sandbox._uids_lock:
                 Sandbox._uids_in_use.discard(self._uid)
             self._uid = None
+        if self._uid_fd is not None:
+            os.close(self._uid_fd)
+            self._uid_fd = None
 
     def _isolation(self, level: str, notes: tuple[str, ...]) -> Isolation:
         namespaced = level != "basic"
@@ -957,8 +965,30 @@ def _sweep_uid(uid: int, budget: float = 5.0) -> list[int]:
         time.sleep(0.01)
 
 
-def _pick_uid(start: int = 60000, span: int = 4000) -> int:
-    """An uid with no passwd entry and no process, not used by another Sandbox of this process."""
+_UID_LOCKS = Path(tempfile.gettempdir()) / "hw4-sandbox-uids"
+
+
+def _lock_uid(uid: int) -> int | None:
+    """An open, exclusively locked file descriptor that reserves ``uid``, or None when it is taken.
+
+    The lock is shared by every grader process on the machine (two batches at once must not
+    pick the same uid: one's clean-up would kill the other's processes).  It is released when
+    the descriptor is closed, or when the process dies.
+    """
+    import fcntl
+
+    _UID_LOCKS.mkdir(mode=0o700, exist_ok=True)
+    fd = os.open(_UID_LOCKS / str(uid), os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _pick_uid(start: int = 60000, span: int = 4000) -> tuple[int, int]:
+    """(uid, lock fd): an uid with no passwd entry and no process, reserved across processes."""
     offset = os.getpid() % span
     for k in range(span):
         uid = start + (offset + k) % span
@@ -970,8 +1000,12 @@ def _pick_uid(start: int = 60000, span: int = 4000) -> int:
             continue
         except KeyError:
             pass
+        fd = _lock_uid(uid)
+        if fd is None:
+            continue
         if not _live_pids_of_uid(uid):
-            return uid
+            return uid, fd
+        os.close(fd)
     raise RuntimeError(f"no free uid between {start} and {start + span}")
 
 

@@ -333,8 +333,17 @@ def test_environment_is_minimal_and_the_workdir_is_fresh(box, monkeypatch):
 # other isolation levels
 
 
+@pytest.mark.skipif(os.geteuid() != 0, reason="the refusal concerns a grader running as root")
+def test_user_namespaces_are_refused_to_a_root_grader():
+    # Mapped to root inside, student code would keep the grader's real uid (root).
+    with pytest.raises(RuntimeError, match="would run as root"):
+        Sandbox(KIT_ROOT, isolation="user-namespaces", limits=LIMITS)
+
+
 @pytest.mark.parametrize("level", ["user-namespaces", "basic"])
 def test_fallback_levels_run_jobs_and_say_what_they_are(level):
+    if level == "user-namespaces" and os.geteuid() == 0:
+        pytest.skip("refused to a root grader (see the test above); runs when the grader is not root")
     try:
         sandbox = Sandbox(KIT_ROOT, isolation=level, limits=LIMITS)
     except RuntimeError as exc:
@@ -417,3 +426,25 @@ def test_wire_limits():
         wire.loads('{"__tuple__": [], "__tuple__": [1]}')
     with pytest.raises(wire.WireError, match="expected None"):
         wire.encode(np.zeros(3).view(np.matrix))
+
+
+def test_two_grader_processes_never_share_a_uid():
+    # Each grader reserves its uid with a lock that other processes see: while one process holds
+    # the only uid of a range, another process finds none free in that range.
+    import subprocess
+    import sys
+
+    code = ("import sys; from autograder.sandbox import _pick_uid; uid, fd = _pick_uid(61234, 1); "
+            "print(uid, flush=True); sys.stdin.read()")
+    env = {**os.environ, "PYTHONPATH": str(KIT_ROOT)}
+    first = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                             env=env)
+    try:
+        assert int(first.stdout.readline()) == 61234
+        second = subprocess.run([sys.executable, "-c", code], input="", capture_output=True, text=True, env=env)
+        assert second.returncode != 0 and "no free uid" in second.stderr
+    finally:
+        first.communicate("", timeout=30)
+    # Released with its process: the uid is free again.
+    again = subprocess.run([sys.executable, "-c", code], input="", capture_output=True, text=True, env=env)
+    assert again.returncode == 0 and int(again.stdout) == 61234
