@@ -1,0 +1,197 @@
+"""Q2: ``eightpoint(pts1, pts2, M)`` on hidden scenes, judged by epipolar distances of true matches.
+
+F is defined up to scale and sign, and several answers are right (refineF or not, the handout's
+1/M scaling or Hartley's normalisation), so no F is compared entry by entry.  Instead:
+
+- on each scene, the RMS symmetric distance of *true* correspondences (noise-free, not the ones
+  fitted) to the student's epipolar lines must stay below a goal set from the valid variants
+  (the reference with and without refineF, and a Hartley-normalised fit made here): 1.5 times
+  the worst of them plus 0.25 px.  A transposed or unscaled F misses by far more;
+- F must have rank 2 (the handout requires it);
+- noise-free matches must give an F that fits them (every point within 0.05 px of its line); this
+  answer also lets the mistake catalogue name what went wrong;
+- the data files' uint16 points must give as good an F as float points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from autograder.results import QuestionResult
+from autograder.sandbox import Call
+from starter.checks.mistakes import fundamental_mistakes, mistake, rank2_not_enforced
+
+from ._common import Malformed, Outcome, as_array, first_problem, fmt, graded
+from .hidden import Scenes, symmetric_distances
+
+__all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare"]
+
+QUESTIONS = ("Q2",)
+FUNCTIONS = ("eightpoint",)
+_CALL = "Q2:eightpoint"
+_SECONDS_PER_CALL = 5.0
+_EXACT_TOL_PX = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class Case:
+    """One eightpoint input: pts1, pts2 (N, 2), M; eval1, eval2 (P, 2) true matches; goal in px."""
+
+    label: str
+    pts1: np.ndarray
+    pts2: np.ndarray
+    M: float
+    eval1: np.ndarray
+    eval2: np.ndarray
+    goal: float
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    cases: tuple[Case, ...]
+    exact: Case
+    uint16: Case
+
+
+def _hartley(pts1, pts2):
+    """F by the eight-point algorithm with Hartley's normalisation (centroid, mean distance sqrt 2)."""
+    def normaliser(p):
+        c = p.mean(axis=0)
+        s = np.sqrt(2.0) / np.mean(np.linalg.norm(p - c, axis=1))
+        return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1.0]])
+
+    T1, T2 = normaliser(pts1), normaliser(pts2)
+    h1 = np.column_stack([pts1, np.ones(len(pts1))]) @ T1.T
+    h2 = np.column_stack([pts2, np.ones(len(pts2))]) @ T2.T
+    A = np.einsum("ni,nj->nij", h2, h1).reshape(len(h1), 9)
+    F = np.linalg.svd(A)[2][-1].reshape(3, 3)
+    U, S, Vt = np.linalg.svd(F)
+    F = T2.T @ (U @ np.diag([S[0], S[1], 0.0]) @ Vt) @ T1
+    return F / np.linalg.norm(F)
+
+
+def _rms(F, eval1, eval2) -> float:
+    d = symmetric_distances(F, eval1, eval2)
+    return float(np.sqrt(np.mean(d ** 2)))
+
+
+def _evaluation_matches(case) -> tuple[np.ndarray, np.ndarray]:
+    if not case.has_truth:
+        return case.pts1, case.pts2  # no ground truth: the given matches, as the handout uses them
+    s = case.scene
+    keep = s.visible2
+    return np.column_stack([s.x1, s.y1]).astype(float)[keep], s.x2_true[keep]
+
+
+def _case(label, pts1, pts2, M, eval1, eval2) -> Case:
+    from solutions import eightpoint
+
+    p1, p2 = np.asarray(pts1, float), np.asarray(pts2, float)
+    variants = [eightpoint(p1, p2, M), eightpoint(p1, p2, M, refine=False), _hartley(p1, p2)]
+    worst = max(_rms(F, eval1, eval2) for F in variants)
+    return Case(label, pts1, pts2, float(M), eval1, eval2, 1.5 * worst + 0.25)
+
+
+def prepare(scenes: Scenes) -> Prepared:
+    cases = []
+    for tc in scenes.temple_cases():
+        e1, e2 = _evaluation_matches(tc)
+        cases.append(_case(tc.label, tc.pts1, tc.pts2, tc.M, e1, e2))
+    base = scenes.default or scenes.hidden[-1]
+    s = base.scene
+    exact = Case("noise-free matches", s.pts1_true.copy(), s.pts2_true.copy(), float(s.M),
+                 s.pts1_true, s.pts2_true, _EXACT_TOL_PX)
+    e1, e2 = _evaluation_matches(base)
+    ref = next(c for c in cases if c.label == base.label)
+    uint16 = Case(f"{base.label}, as uint16", s.pts1.astype(np.uint16), s.pts2.astype(np.uint16), float(s.M),
+                  e1, e2, ref.goal)
+    return Prepared(tuple(cases), exact, uint16)
+
+
+def calls(p: Prepared, time_scale: float) -> list[Call]:
+    items = [((c.pts1, c.pts2, c.M), {}) for c in (*p.cases, p.exact, p.uint16)]
+    budget = _SECONDS_PER_CALL * len(items) * time_scale
+    return [Call(_CALL, "__hw4_each", ("eightpoint", items, budget), timeout=budget + 5 * time_scale + 2)]
+
+
+def _F(item) -> np.ndarray:
+    if not item.ok:
+        raise Malformed(item.error)
+    return as_array(item.value, (3, 3), "F")
+
+
+def _rank_two(F) -> bool:
+    s = np.linalg.svd(F, compute_uv=False) if np.all(np.isfinite(F)) else np.zeros(3)
+    return bool(s[1] > 1e-9 * s[0] > 0)
+
+
+def judge(p: Prepared, outcomes) -> list[QuestionResult]:
+    out = Outcome(outcomes.get(_CALL), "eightpoint")
+    n = len(p.cases)
+    items = out.items(n + 2)
+    fits, lines, rank_right, rank_lines = 0, [], 0, []
+    rank_mistake = None
+    float_ok = {}
+    for case, item in zip(p.cases, items[:n]):
+        try:
+            F = _F(item)
+        except Malformed as exc:
+            lines.append(f"{case.label}: {exc}")
+            continue
+        rms = _rms(F, case.eval1, case.eval2)
+        ok = rms <= case.goal
+        fits += ok
+        float_ok[case.label] = ok
+        lines.append(f"{case.label}: RMS distance of true matches to your epipolar lines {fmt(rms)} px "
+                     f"(goal <= {fmt(case.goal)} px){'' if ok else ': too far'}")
+        # Rank counts only for an F of the scene: a zero or made-up rank-2 matrix earns nothing.
+        r = rank2_not_enforced(F, case.M)
+        rank_mistake = rank_mistake or r
+        if r is not None:
+            rank_lines.append(f"{case.label}: full rank ({r.evidence})")
+        elif not _rank_two(F):
+            rank_lines.append(f"{case.label}: rank below 2")
+        elif ok:
+            rank_right += 1
+            rank_lines.append(f"{case.label}: rank 2")
+        else:
+            rank_lines.append(f"{case.label}: rank 2, but F does not fit the scene")
+
+    mistakes = []
+    exact_lines = []
+    exact_ok = False
+    try:
+        F_exact = _F(items[n])
+        d = symmetric_distances(F_exact, p.exact.eval1, p.exact.eval2)
+        worst = float(np.max(d))
+        exact_ok = worst <= p.exact.goal
+        exact_lines.append(f"largest distance of a noise-free match to its epipolar line {fmt(worst)} px "
+                           f"(goal <= {fmt(p.exact.goal)} px)")
+        mistakes = fundamental_mistakes(F_exact, p.exact.eval1, p.exact.eval2, p.exact.M)
+    except Malformed as exc:
+        exact_lines.append(str(exc))
+
+    u16_lines, u16_ok, u16_mistakes = [], False, []
+    try:
+        F16 = _F(items[n + 1])
+        rms = _rms(F16, p.uint16.eval1, p.uint16.eval2)
+        u16_ok = rms <= p.uint16.goal
+        u16_lines.append(f"{p.uint16.label}: RMS distance of true matches {fmt(rms)} px (goal <= {fmt(p.uint16.goal)} px)")
+        base_label = p.uint16.label.rsplit(",", 1)[0]
+        if not u16_ok and float_ok.get(base_label):
+            u16_mistakes = [mistake("uint16_wraparound", "the same points as float64 give a good F")]
+    except Malformed as exc:
+        u16_lines.append(str(exc))
+
+    if not rank_lines:
+        rank_lines.append(first_problem(items[:n]) or "no F to check")
+    tests = [
+        graded("F fits the true matches of every scene", 5, fits / n, lines, mistakes),
+        graded("F has rank 2 (counted where F fits)", 2, rank_right / n, rank_lines, [rank_mistake]),
+        graded("noise-free matches give an exact F", 2, float(exact_ok), exact_lines, mistakes),
+        graded("the data files' uint16 points work as well as float ones", 1, float(u16_ok), u16_lines,
+               u16_mistakes),
+    ]
+    return [QuestionResult.of("Q2", tests)]

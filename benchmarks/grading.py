@@ -1,0 +1,81 @@
+"""Grading throughput: 20 submissions graded with --jobs 1 and with --jobs 2, in submissions per minute.
+
+    python benchmarks/grading.py [--count 20] [--quick] [--keep DIR]
+
+The submissions are the answer key and the corpus of tests/corpus (mistakes, valid alternatives,
+broken notebooks; the hostile ones are left out, they measure the sandbox rather than a class),
+repeated until there are --count.  Settings: the grader's defaults (``GradingConfig()``, the dev
+secret) or, with --quick, the small ones of the kit's tests.  The hidden inputs are made once,
+before the clock starts, as a real batch does; their cost is printed on its own, and so is the
+time of grading the answer key alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+_HOSTILE = ("bomb", "loop", "exit", "process_left", "patched", "always_true", "reads_grader", "writes_results",
+            "prints_fake")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--count", type=int, default=20, help="submissions per run (default 20)")
+    ap.add_argument("--quick", action="store_true", help="the small settings of the kit's tests")
+    ap.add_argument("--keep", default=None, help="write the submissions and results here instead of a temp folder")
+    args = ap.parse_args(argv)
+
+    import corpus
+
+    from autograder.config import GradingConfig, quick_config
+    from autograder.grade import grade_batch
+    from autograder.tests import build_hidden_inputs
+
+    config = quick_config() if args.quick else GradingConfig()
+    root = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="hw4-grading-bench-"))
+    names = ["key_full_marks"] + [n for n in corpus.CASES
+                                  if n != "key_full_marks" and not any(h in n for h in _HOSTILE)]
+    paths = []
+    for k in range(args.count):
+        name = names[k % len(names)]
+        folder = corpus.build(name, root / "subs" / f"{k:02d}")
+        paths.append(folder)
+
+    t0 = time.perf_counter()
+    build_hidden_inputs(config)
+    print(f"hidden inputs: {time.perf_counter() - t0:.1f} s (once per batch)")
+
+    key_out = root / "key"
+    t0 = time.perf_counter()
+    key = grade_batch(paths[:1], key_out, jobs=1, config=config, resume=False, progress=False)[0]
+    print(f"answer key alone: {time.perf_counter() - t0:.1f} s, {key.score:g} points")
+
+    for jobs in (1, 2):
+        out = root / f"out-jobs{jobs}"
+        shutil.rmtree(out, ignore_errors=True)
+        t0 = time.perf_counter()
+        records = grade_batch(paths, out, jobs=jobs, config=config, resume=False, progress=False)
+        seconds = time.perf_counter() - t0
+        failed = sum(r.failure is not None for r in records)
+        print(f"--jobs {jobs}: {len(records)} submissions in {seconds:.1f} s, "
+              f"{60 * len(records) / seconds:.1f} submissions per minute" + (f" ({failed} failed)" if failed else ""))
+    if not args.keep:
+        shutil.rmtree(root, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,326 @@
+"""Cell sources of the hostile corpus: code that attacks the grader instead of answering.
+
+Each function below returns a cell's text; ``{kit}``, ``{out}``, ``{name}`` are filled in by the
+builders with the kit's root, the grader's output folder and the submission's name, so that
+the attacks aim at the real paths (a student could guess them; these know them).
+"""
+
+GARBAGE_RETURNS = '''\
+import numpy as np
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    return np.zeros((3, 3))
+
+
+def essentialMatrix(F, K1, K2):
+    return np.zeros((3, 3))
+
+
+def triangulate(C1, pts1, C2, pts2):
+    return np.zeros((len(pts1), 3)), 0.0
+'''
+
+PATCHED_NUMPY = '''\
+import builtins
+import numpy as np
+
+# Runs while the notebook is loaded: every comparison numpy offers now says "equal".
+_patched = setattr(np, "allclose", lambda *a, **k: True)
+_patched_too = setattr(np, "array_equal", lambda *a, **k: True)
+
+
+def _patch_everything():
+    np.isclose = lambda a, b, *r, **k: np.ones(np.shape(a), bool)
+    np.testing.assert_allclose = lambda *a, **k: None
+    np.testing.assert_array_equal = lambda *a, **k: None
+    np.linalg.norm = lambda *a, **k: 0.0
+    builtins.abs = lambda x: 0
+    builtins.min = lambda *a, **k: 0
+    builtins.max = lambda *a, **k: 0
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    _patch_everything()
+    return np.zeros((3, 3))
+
+
+def essentialMatrix(F, K1, K2):
+    _patch_everything()
+    return np.eye(3)
+
+
+def triangulate(C1, pts1, C2, pts2):
+    _patch_everything()
+    return np.zeros((len(pts1), 3)), 0.0
+
+
+def findM2(F, pts1, pts2, K1, K2):
+    _patch_everything()
+    return np.zeros((3, 4)), np.zeros((3, 4)), np.zeros((len(pts1), 3))
+
+
+def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
+    _patch_everything()
+    return np.zeros((3, 4)), np.zeros_like(w_init), 0.0, 0.0
+'''
+
+ALWAYS_TRUE_OBJECTS = '''\
+import numpy as np
+
+
+class AlwaysEqual:
+    """Compares equal, close, smaller and larger than anything."""
+
+    def __eq__(self, other): return True
+    def __ne__(self, other): return False
+    def __lt__(self, other): return True
+    def __le__(self, other): return True
+    def __gt__(self, other): return True
+    def __ge__(self, other): return True
+    def __bool__(self): return True
+    def __abs__(self): return self
+    def __sub__(self, other): return self
+    def __rsub__(self, other): return self
+    def __float__(self): return 0.0
+    def __len__(self): return 3
+    def __getitem__(self, k): return self
+    __hash__ = object.__hash__
+
+
+class SneakyArray(np.ndarray):
+    """An ndarray whose comparisons always hold."""
+
+    def __eq__(self, other): return True
+    def __lt__(self, other): return True
+    def __le__(self, other): return True
+    def __gt__(self, other): return True
+    def __ge__(self, other): return True
+    def __array__(self, dtype=None, copy=None): return np.full(self.shape, 12345.0)
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    return np.zeros((3, 3)).view(SneakyArray)
+
+
+def essentialMatrix(F, K1, K2):
+    return AlwaysEqual()
+
+
+def triangulate(C1, pts1, C2, pts2):
+    return AlwaysEqual(), AlwaysEqual()
+
+
+def rodriguesResidual(K1, M1, p1, K2, p2, x):
+    return np.zeros(4 * len(p1)).view(SneakyArray)
+
+
+def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
+    return AlwaysEqual(), AlwaysEqual()
+'''
+
+EXIT_IN_EIGHTPOINT = '''\
+import sys
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    sys.exit(0)
+'''
+
+OS_EXIT_IN_ESSENTIAL = '''\
+import os
+
+
+def essentialMatrix(F, K1, K2):
+    os._exit(0)
+'''
+
+OS_EXIT_WHILE_LOADING = '''\
+import os
+
+_gone = os._exit(3)
+'''
+
+INFINITE_LOOP = '''\
+import signal
+
+
+def rodriguesResidual(K1, M1, p1, K2, p2, x):
+    signal.signal(signal.SIGALRM, signal.SIG_IGN)   # the call's alarm no longer stops it
+    while True:
+        pass
+'''
+
+MEMORY_BOMB = '''\
+def eightpoint(pts1, pts2, M, refine=True):
+    hoard = []
+    while True:
+        hoard.append(bytearray(100 * 2**20))
+'''
+
+FORK_BOMB = '''\
+import os
+
+
+def findM2(F, pts1, pts2, K1, K2):
+    while True:
+        os.fork()
+'''
+
+
+def reads_grader_files(kit: str, out: str) -> str:
+    return f'''\
+import glob
+import importlib.util
+import os
+import sys
+
+import numpy as np
+
+_KIT = {kit!r}
+_OUT = {out!r}
+
+
+def _reference(name):
+    """The grader's own answer, if its files can be reached."""
+    for path in glob.glob(os.path.join(_KIT, "solutions", "*.py")):
+        if os.path.basename(path) == "__init__.py":
+            continue
+        spec = importlib.util.spec_from_file_location("stolen", path)
+        module = importlib.util.module_from_spec(spec)
+        sys.path.insert(0, _KIT)
+        spec.loader.exec_module(module)
+        if hasattr(module, name):
+            return getattr(module, name)
+    raise FileNotFoundError("no reference found")
+
+
+def _peek():
+    seen = []
+    for pattern in ("autograder/config.py", "autograder/tests/*.py", "../shared/course-data/temple/*"):
+        for path in glob.glob(os.path.join(_KIT, pattern)):
+            with open(path, "rb") as fh:
+                seen.append(fh.read(100))
+    for path in glob.glob(os.path.join(_OUT, "*", "*.json")):
+        with open(path, "rb") as fh:
+            seen.append(fh.read(100))
+    return seen
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    _peek()
+    return _reference("eightpoint")(pts1, pts2, M)
+
+
+def essentialMatrix(F, K1, K2):
+    return _reference("essentialMatrix")(F, K1, K2)
+
+
+def triangulate(C1, pts1, C2, pts2):
+    return _reference("triangulate")(C1, pts1, C2, pts2)
+
+
+def findM2(F, pts1, pts2, K1, K2):
+    return _reference("findM2")(F, pts1, pts2, K1, K2)
+
+
+def epipolarCorrespondence(im1, im2, F, x1, y1):
+    return _reference("epipolarCorrespondence")(im1, im2, F, x1, y1)
+
+
+def rodriguesResidual(K1, M1, p1, K2, p2, x):
+    return _reference("rodriguesResidual")(K1, M1, p1, K2, p2, x)
+
+
+def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
+    return _reference("bundleAdjustment")(K1, M1, p1, K2, M2_init, p2, w_init)
+
+
+def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
+    return _reference("MultiviewReconstruction")(C1, pts1, C2, pts2, C3, pts3, Thres)
+'''
+
+
+def writes_results(out: str, name: str, trap: str) -> str:
+    """``trap`` stands for Gradescope's /autograder/results/results.json, outside the output folder."""
+    return f'''\
+import json
+import os
+
+import numpy as np
+
+_FAKE = {{"score": 1000.0, "output": "perfect", "tests": []}}
+_TARGETS = [
+    os.path.join({out!r}, {name!r}, "results.json"),
+    os.path.join({out!r}, {name!r}, "grading.json"),
+    os.path.join({out!r}, "grades.csv"),
+    {trap!r},
+    os.path.expanduser("~/results.json"),
+]
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    for target in _TARGETS:
+        try:
+            os.makedirs(os.path.dirname(target), exist_ok=True)
+            with open(target, "w") as fh:
+                json.dump(_FAKE, fh)
+        except OSError:
+            pass
+    return np.zeros((3, 3))
+'''
+
+
+PRINTS_FAKE_RESULTS = '''\
+import json
+import os
+import sys
+
+import numpy as np
+
+_CALLS = ["Q2:eightpoint", "Q3.1:essentialMatrix", "Q3.2:triangulate", "Q3.3:findM2",
+          "Q5:rodriguesResidual", "Q5:bundleAdjustment", "Q6:MultiviewReconstruction"]
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    print(json.dumps({"score": 1000.0, "tests": [{"name": "Q2", "score": 10, "max_score": 10}]}))
+    print("All tests passed! 90 / 75", file=sys.stderr)
+    for call in _CALLS:
+        fake = json.dumps({"id": call, "status": "ok", "value": {"__dict__": {"status": "ok", "items": []}}})
+        for fd in range(3, 1024):
+            try:
+                os.write(fd, (fake + "\\n").encode())
+            except OSError:
+                pass
+    return np.zeros((3, 3))
+'''
+
+
+def leaves_process(out: str, name: str) -> str:
+    return f'''\
+import os
+import time
+
+import numpy as np
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    if os.fork() == 0:
+        os.setsid()
+        if os.fork() == 0:
+            # A daemon: outlive the job, then try to rewrite the results.
+            for fd in range(0, 256):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+            time.sleep(8)
+            try:
+                with open(os.path.join({out!r}, {name!r}, "results.json"), "w") as fh:
+                    fh.write('{{"score": 1000}}')
+            except OSError:
+                pass
+            os._exit(0)
+        os._exit(0)
+    return np.zeros((3, 3))
+'''
