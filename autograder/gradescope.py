@@ -1,0 +1,419 @@
+"""Gradescope's autograder bundle: build the zip, and grade one submission inside it.
+
+``python -m autograder gradescope --out autograder.zip``
+    Builds the zip an instructor uploads to Gradescope.  Gradescope unpacks it into
+    ``/autograder/source``, runs ``setup.sh`` once to make its image, then ``run_autograder`` for
+    every submission.
+``python -m autograder gradescope run [--root /autograder]``
+    What ``run_autograder`` calls: grades ``<root>/submission`` with ``grade_submission`` (the
+    same code as ``python -m autograder grade``; student code runs in the sandbox under a uid of
+    its own) and writes ``<root>/results/results.json``.  Any failure still writes a valid
+    result worth zero that says why; ``run_autograder`` adds a shell-level fallback for when
+    Python itself cannot run.
+
+Contents of the zip (paths relative to /autograder/source):
+
+====================================  ==========================================================
+``setup.sh``, ``run_autograder``      from ``autograder/gradescope_assets/``, ``@FIELDS@`` filled
+``requirements.txt``                  the kit's (what setup.sh installs)
+``autograder/`` ``solutions/``        whole packages, without ``__pycache__``
+``starter/`` ``scenes/``
+``kit/``                              only ``__init__.py`` and the modules the packages above
+                                      import (``kit.manifest``...), found by reading their imports
+``data/``                             the kit's default data (generated when the kit's is empty)
+``grader_config.json``                the instructor's grading settings at build time, with the
+                                      secret all hidden seeds derive from (``autograder.config``)
+``BUNDLE.json``                       what was built, when, with which limits (no secrets)
+====================================  ==========================================================
+
+Never included: ``tests/``, ``notebooks/`` (the answer key), ``benchmarks/``, the official course
+data, version-control and build leftovers.  Gradescope students never see the bundle; what they
+see is results.json, which carries the grader's feedback and never the hidden inputs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import json
+import dataclasses
+import os
+import re
+import stat
+import sys
+import tempfile
+import time
+import traceback
+import zipfile
+from collections.abc import Iterable
+from pathlib import Path
+
+from .results import SubmissionResult
+
+__all__ = [
+    "ASSETS",
+    "CONFIG_NAME",
+    "DEFAULT_TIME_LIMIT",
+    "DEFAULT_VENV",
+    "KIT_ROOT",
+    "PACKAGES",
+    "add_cli",
+    "build_bundle",
+    "config_file",
+    "data_files",
+    "grader_files",
+    "grade_gradescope",
+    "hideable",
+    "render_asset",
+]
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+ASSETS = Path(__file__).resolve().with_name("gradescope_assets")
+PACKAGES = ("autograder", "solutions", "starter", "scenes")
+DEFAULT_TIME_LIMIT = 540   # seconds: below Gradescope's default 10-minute limit, room for the fallback
+DEFAULT_VENV = "/opt/hw4-venv"
+_SCRIPTS = ("setup.sh", "run_autograder")
+_SKIP_PARTS = {"__pycache__", ".ipynb_checkpoints", ".pytest_cache", ".mypy_cache", ".ruff_cache"}
+_SKIP_SUFFIXES = (".pyc", ".pyo")
+# 1980-01-01: the earliest time a zip can hold; a fixed date makes the zip reproducible.
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+
+
+# ------------------------------------------------------------------------------------------------
+# what a grading environment needs
+
+
+def _kept(path: Path, root: Path) -> bool:
+    parts = path.relative_to(root).parts
+    return not (any(p in _SKIP_PARTS or p.startswith(".") for p in parts) or path.name.endswith(_SKIP_SUFFIXES))
+
+
+def _package_files(root: Path, package: str) -> list[Path]:
+    folder = root / package
+    if not (folder / "__init__.py").is_file():
+        raise FileNotFoundError(f"kit_root: expected the package {package}/ in {root}, found none")
+    return sorted(p for p in folder.rglob("*") if p.is_file() and not p.is_symlink() and _kept(p, root))
+
+
+def _kit_modules(root: Path, files: Iterable[Path]) -> set[str]:
+    """Modules of the ``kit`` package that ``files`` import (the grader needs them, not all of kit/)."""
+    wanted: set[str] = set()
+    for path in files:
+        if path.suffix != ".py":
+            continue
+        try:
+            tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        except SyntaxError as exc:
+            raise ValueError(f"kit_root: {path} does not parse ({exc.msg}, line {exc.lineno})") from None
+        in_kit = path.parent == root / "kit"
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.ImportFrom) and (node.level == 0 or (node.level == 1 and in_kit)):
+                module = node.module if node.level == 0 else "kit" + (f".{node.module}" if node.module else "")
+                names = [module] + [f"{module}.{a.name}" for a in node.names] if module else []
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            for name in names:
+                parts = name.split(".")
+                if parts[0] == "kit" and len(parts) > 1 and (root / "kit" / f"{parts[1]}.py").is_file():
+                    wanted.add(parts[1])
+    return wanted
+
+
+def grader_files(kit_root: str | Path = KIT_ROOT) -> list[tuple[str, Path]]:
+    """The kit's files a grading environment needs: ``(relative posix path, source file)``, sorted.
+
+    The packages of ``PACKAGES`` whole, ``requirements.txt``, and of ``kit/`` only ``__init__.py``
+    plus the modules those packages import (followed through kit modules importing each other).
+    Data and configuration are not included (see ``build_bundle``).
+
+    Raises
+    ------
+    FileNotFoundError
+        When a package or requirements.txt is missing from ``kit_root``.
+    """
+    root = Path(kit_root).resolve()
+    files = [p for pkg in PACKAGES for p in _package_files(root, pkg)]
+    kit_init = root / "kit" / "__init__.py"
+    modules: set[str] = set()
+    frontier = files + ([kit_init] if kit_init.is_file() else [])
+    while frontier:
+        new = _kit_modules(root, frontier) - modules
+        modules |= new
+        frontier = [root / "kit" / f"{m}.py" for m in sorted(new)]
+    kit = ([kit_init] if kit_init.is_file() else []) + [root / "kit" / f"{m}.py" for m in sorted(modules)]
+    requirements = root / "requirements.txt"
+    if not requirements.is_file():
+        raise FileNotFoundError(f"kit_root: expected requirements.txt in {root}, found none")
+    out = [(p.relative_to(root).as_posix(), p) for p in files + kit + [requirements]]
+    return sorted(set(out))
+
+
+def data_files(kit_root: Path, scratch: Path) -> list[tuple[str, Path]]:
+    """The kit's data/ files as ``(data/..., source file)``, or the default data generated into
+    ``scratch/data`` when the kit's data/ has none (a fresh checkout before ``python -m kit data``)."""
+    data = kit_root / "data"
+    found = sorted(p for p in data.rglob("*") if p.is_file() and _kept(p, kit_root)) if data.is_dir() else []
+    if not found:
+        from scenes.defaults import write_default_data
+
+        found = write_default_data(scratch / "data")
+        data = scratch / "data"
+    return [("data/" + p.relative_to(data).as_posix(), p) for p in found]
+
+
+def render_asset(name: str, *, time_limit: int = DEFAULT_TIME_LIMIT, venv: str = DEFAULT_VENV) -> str:
+    """The text of ``gradescope_assets/<name>`` with its ``@FIELDS@`` filled in.
+
+    Raises
+    ------
+    ValueError
+        For an unknown asset, a time limit that is not a positive int, a venv that is not an
+        absolute path of plain characters, or a field left unfilled.
+    """
+    if name not in _SCRIPTS:
+        raise ValueError(f"name: expected one of {_SCRIPTS}, got {name!r}")
+    if isinstance(time_limit, bool) or not isinstance(time_limit, int) or time_limit <= 0:
+        raise ValueError(f"time_limit: expected a positive number of seconds (int), got {time_limit!r}")
+    if not (venv.startswith("/") and all(c.isalnum() or c in "/._-" for c in venv)):
+        raise ValueError(f"venv: expected an absolute path of letters, digits and /._-, got {venv!r}")
+    text = (ASSETS / name).read_text(encoding="utf-8")
+    text = text.replace("@TIME_LIMIT@", str(time_limit)).replace("@VENV@", venv)
+    if re.search(r"@[A-Z_]+@", text):
+        raise ValueError(f"name: {name} still has an unfilled @FIELD@")
+    return text
+
+
+# ------------------------------------------------------------------------------------------------
+# building the zip
+
+
+CONFIG_NAME = "grader_config.json"
+
+
+def config_file(scratch: Path, *, allow_dev_secret: bool = False) -> list[tuple[str, Path]]:
+    """The instructor's grading settings as found now (``autograder.config.load_config``), written
+    to ``scratch/grader_config.json``: ``[("grader_config.json", path)]``.
+
+    The secret every hidden seed derives from goes in; the official data folder does not (it is a
+    path of this machine, and that data is never shipped).
+
+    Raises
+    ------
+    ValueError
+        When the settings use the public development secret and ``allow_dev_secret`` is False:
+        grading with it would test students on scenes anyone can regenerate.
+    """
+    from .config import ENV_CONFIG, ENV_SECRET, load_config
+
+    config = load_config()
+    if config.is_dev and not allow_dev_secret:
+        raise ValueError(f"secret: expected the course's own grading secret (set {ENV_SECRET}, or "
+                         f"{ENV_CONFIG} to a config file), got the public development secret")
+    data = {"comment": "hw4 grader settings, copied at build time; keep private"}
+    data.update({f.name: getattr(config, f.name) for f in dataclasses.fields(config)
+                 if f.name not in ("source", "official_data")})
+    data["temples"] = [dataclasses.asdict(t) for t in config.temples]
+    path = scratch / CONFIG_NAME
+    path.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+    copied = load_config(path, environ={})
+    if dataclasses.replace(copied, source=None) != dataclasses.replace(config, source=None, official_data=None):
+        raise ValueError(f"config: the settings written to {CONFIG_NAME} do not read back as the instructor's")
+    return [(CONFIG_NAME, path)]
+
+
+def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit: int = DEFAULT_TIME_LIMIT,
+                 venv: str = DEFAULT_VENV, allow_dev_secret: bool = False) -> Path:
+    """Write Gradescope's autograder zip to ``out`` and return its path.
+
+    Parameters
+    ----------
+    out : path of the zip to write (its folder must exist); replaced atomically.
+    kit_root : the kit to take the grader from (default: this one).
+    time_limit : seconds ``run_autograder`` lets grading run before writing a zero that says so.
+        Keep it below the autograder timeout set on Gradescope.
+    venv : where ``setup.sh`` makes the virtual environment on Gradescope's image.
+    allow_dev_secret : build with the public development secret (for trying the bundle out only).
+
+    Raises
+    ------
+    ValueError, FileNotFoundError
+        For bad arguments, a kit missing a package, an ``out`` whose folder does not exist, or
+        the development secret without ``allow_dev_secret`` (see ``config_file``).
+    """
+    out = Path(out)
+    if out.suffix.lower() != ".zip":
+        raise ValueError(f"out: expected a path ending in .zip, got {str(out)!r}")
+    if not out.parent.is_dir():
+        raise FileNotFoundError(f"out: expected an existing folder for {out}, got none at {out.parent}")
+    root = Path(kit_root).resolve()
+    scripts = {name: render_asset(name, time_limit=time_limit, venv=venv) for name in _SCRIPTS}
+    with tempfile.TemporaryDirectory(prefix="hw4-gradescope-") as tmp:
+        scratch = Path(tmp)
+        members = grader_files(root) + data_files(root, scratch) + config_file(scratch, allow_dev_secret=allow_dev_secret)
+        names = [n for n, _ in members]
+        if len(set(names)) != len(names) or set(names) & set(_SCRIPTS):
+            raise ValueError(f"kit_root: two bundle files would share a path: {sorted(names)}")
+        info = {"built": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "time_limit": time_limit, "venv": venv,
+                "python_built_with": sys.version.split()[0], "files": len(members) + len(_SCRIPTS) + 1,
+                "development_secret": allow_dev_secret and _is_dev(scratch)}
+        fd, partial = tempfile.mkstemp(dir=out.parent, prefix=".autograder-", suffix=".zip")
+        os.close(fd)
+        try:
+            with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+                for name, text in scripts.items():
+                    _add(zf, name, text.encode("utf-8"), executable=True)
+                _add(zf, "BUNDLE.json", (json.dumps(info, indent=2) + "\n").encode("utf-8"))
+                for name, path in sorted(members):
+                    _add(zf, name, path.read_bytes())
+            os.replace(partial, out)
+        except BaseException:
+            Path(partial).unlink(missing_ok=True)
+            raise
+    return out
+
+
+def _add(zf: zipfile.ZipFile, name: str, data: bytes, *, executable: bool = False) -> None:
+    info = zipfile.ZipInfo(name, date_time=_ZIP_DATE)
+    info.compress_type = zipfile.ZIP_DEFLATED
+    mode = 0o755 if executable else 0o644
+    info.external_attr = (stat.S_IFREG | mode) << 16
+    info.create_system = 3  # Unix, so that unzip restores the modes
+    zf.writestr(info, data)
+
+
+# ------------------------------------------------------------------------------------------------
+# grading on Gradescope
+
+
+def _candidates(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.rglob("*") if p.is_file() and not p.is_symlink()
+                  and p.suffix.lower() in (".ipynb", ".py", ".zip")
+                  and not any(part.startswith(".") or part == "__MACOSX"
+                              for part in p.relative_to(folder).parts))
+
+
+def _submission_path(folder: Path) -> tuple[Path | None, str | None]:
+    """What to grade in Gradescope's submission folder, or (None, why not).
+
+    Students upload the notebooks, or one zip of them that Gradescope may leave packed.
+    """
+    if not folder.is_dir():
+        return None, "no submission folder was found"
+    files = _candidates(folder)
+    if not files:
+        return None, ("the submission holds no notebooks: upload your .ipynb files "
+                      "(q2_eightpoint.ipynb, ...) or one .zip of them")
+    zips = [p for p in files if p.suffix.lower() == ".zip"]
+    if len(zips) == len(files) == 1:
+        return zips[0], None
+    return folder, None
+
+
+def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
+    """Grade ``<root>/submission`` and write ``<root>/results/results.json``; return the result.
+
+    Never raises for anything the submission does: an unusable submission, a sandbox that
+    cannot start or a grader error gives ``SubmissionResult.failed`` with the reason (grader
+    tracebacks go to stdout, which Gradescope shows to staff only).
+    """
+    root = Path(root)
+    results = root / "results"
+    results.mkdir(parents=True, exist_ok=True)
+    start = time.monotonic()
+    path, why = _submission_path(root / "submission")
+    if path is None:
+        result = SubmissionResult.failed(why)
+    else:
+        try:
+            result = _grade(path, root)
+        except Exception:  # noqa: BLE001 - whatever broke, the student still gets a result
+            traceback.print_exc(file=sys.stdout)
+            result = SubmissionResult.failed("the autograder hit an internal error; the course staff can see its log")
+    if result.execution_time is None:
+        result = dataclasses.replace(result, execution_time=time.monotonic() - start)
+    result.write_gradescope(results / "results.json")
+    return result
+
+
+def _is_dev(scratch: Path) -> bool:
+    from .config import load_config
+
+    return load_config(scratch / CONFIG_NAME, environ={}).is_dev
+
+
+def hideable(paths) -> list[Path]:
+    """``paths`` without None and without any folder that holds the running Python (the sandbox
+    runs it, so hiding it would stop every job)."""
+    python = {Path(sys.prefix).resolve(), Path(sys.base_prefix).resolve()}
+    out = []
+    for p in paths:
+        if p is not None:
+            p = Path(p).resolve()
+            if not any(p == d or p in d.parents for d in python):
+                out.append(p)
+    return out
+
+
+def _grade(path: Path, root: Path) -> SubmissionResult:
+    from .config import load_config
+    from .grade import grade_submission
+    from .sandbox import Sandbox
+    from .submission import SubmissionError, load_submission
+    from .tests import build_hidden_inputs
+
+    try:
+        # Cheap, so an unreadable upload is told so at once, before scenes and sandbox are made.
+        if not load_submission(path).notebooks:
+            return SubmissionResult.failed("no notebook of the homework was found "
+                                           "(expected files such as q2_eightpoint.ipynb)")
+    except SubmissionError as exc:
+        return SubmissionResult.failed(str(exc))
+    source = root / "source"
+    # environ={}: on Gradescope nothing but the bundled file decides the hidden inputs.
+    config = load_config(source / CONFIG_NAME, environ={})
+    hidden_inputs = build_hidden_inputs(config)
+    # All of root: the grader, the results, Gradescope's submission metadata.
+    with Sandbox(source, hidden=hideable([root, config.source, config.official_dir()])) as box:
+        return grade_submission(path, sandbox=box, hidden_inputs=hidden_inputs)
+
+
+# ------------------------------------------------------------------------------------------------
+# command line
+
+
+def _cli(args) -> int:
+    if args.action == "run":
+        result = grade_gradescope(args.root)
+        print(f"graded: {result.score:g} points (base total {result.max_score:g}, extra credit on top)"
+              + (f"; not graded: {result.failure}" if result.failure else ""))
+        return 0
+    if args.out is None:
+        raise ValueError("--out: expected the path of the zip to write, got none")
+    path = build_bundle(args.out, time_limit=args.time_limit, venv=args.venv, allow_dev_secret=args.allow_dev_secret)
+    if args.allow_dev_secret:
+        print("warning: this bundle may grade with the public development secret: try it out, do not grade with it")
+    print(f"wrote {path} ({path.stat().st_size / 2**20:.1f} MB): upload it as the Gradescope autograder")
+    return 0
+
+
+def add_cli(subparsers) -> None:
+    """Register ``python -m autograder gradescope`` (build) and ``gradescope run`` (grade)."""
+    p = subparsers.add_parser(
+        "gradescope", help="build Gradescope's autograder zip (or, on Gradescope, grade one submission)",
+        description="Build the autograder zip to upload to Gradescope.  `gradescope run` is what the "
+                    "zip's run_autograder calls on Gradescope.",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default=None, help="path of the zip to write, e.g. autograder.zip")
+    p.add_argument("--time-limit", type=int, default=DEFAULT_TIME_LIMIT,
+                   help=f"seconds grading may run on Gradescope before a zero that says so (default {DEFAULT_TIME_LIMIT}); "
+                        "keep it below the autograder timeout set on Gradescope")
+    p.add_argument("--venv", default=DEFAULT_VENV, help=f"virtual environment setup.sh makes (default {DEFAULT_VENV})")
+    p.add_argument("--allow-dev-secret", action="store_true",
+                   help="build even without the course's grading secret (HW4_GRADER_SECRET / HW4_GRADER_CONFIG); "
+                        "for trying the bundle out only")
+    actions = p.add_subparsers(dest="action")
+    r = actions.add_parser("run", help="grade <root>/submission into <root>/results/results.json")
+    r.add_argument("--root", default=os.environ.get("HW4_AUTOGRADER_ROOT", "/autograder"),
+                   help="Gradescope's folder (default: $HW4_AUTOGRADER_ROOT or /autograder)")
+    p.set_defaults(func=_cli)

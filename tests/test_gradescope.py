@@ -1,0 +1,298 @@
+"""Gradescope's autograder zip: what it holds, and run_autograder in a folder laid out like Gradescope's.
+
+The zip is built once per session and unpacked into ``<tmp>/autograder/source``; each case puts a
+submission in ``<tmp>/autograder/submission`` and runs the real ``run_autograder`` (bash) with
+``HW4_AUTOGRADER_ROOT`` pointing at ``<tmp>/autograder``, then reads ``results/results.json``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import re
+import shutil
+import stat
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from autograder import gradescope
+from autograder.config import load_config, quick_config
+from autograder.results import autograded_question_ids
+from kit.manifest import NOTEBOOKS, QUESTIONS
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+KEY = KIT_ROOT / "notebooks" / "key"
+STUDENT = KIT_ROOT / "notebooks"
+# The grading secret every hidden seed derives from; distinctive, so finding it cannot be chance.
+SECRET = "gradescope-test-secret-918273645"
+SEED_LABELS = ("temple-1", "temple-2", "car", "bundle", "matching", "essential", "multiview")
+
+
+def course_data_dir() -> Path:
+    env = os.environ.get("HW4_COURSE_DATA")
+    return Path(env) if env else KIT_ROOT.parent / "shared" / "course-data"
+
+
+@pytest.fixture(scope="session")
+def bundle(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("bundle")
+    # The instructor's settings at build time: the kit's quick scenes (fast tests), our secret.
+    quick = quick_config(time_scale=1.0)
+    settings = {"secret": SECRET, "temples": [dataclasses.asdict(t) for t in quick.temples],
+                "match_points": quick.match_points, "ba_points": quick.ba_points, "car_times": quick.car_times}
+    (folder / "grader.json").write_text(json.dumps(settings))
+    env = {"HW4_GRADER_CONFIG": str(folder / "grader.json"), "HW4_GRADER_SECRET": None}
+    old = {k: os.environ.get(k) for k in env}
+    try:
+        for k, v in env.items():
+            os.environ.pop(k, None) if v is None else os.environ.__setitem__(k, v)
+        return gradescope.build_bundle(folder / "autograder.zip", time_limit=300)
+    finally:
+        for k, v in old.items():
+            os.environ.pop(k, None) if v is None else os.environ.__setitem__(k, v)
+
+
+@pytest.fixture(scope="session")
+def names(bundle) -> list[str]:
+    with zipfile.ZipFile(bundle) as zf:
+        return zf.namelist()
+
+
+def unpack(bundle: Path, root: Path) -> Path:
+    """Lay ``bundle`` out as Gradescope does: <root>/autograder/{source,submission,results}."""
+    ag = root / "autograder"
+    source = ag / "source"
+    source.mkdir(parents=True)
+    with zipfile.ZipFile(bundle) as zf:
+        for info in zf.infolist():
+            path = Path(zf.extract(info, source))
+            mode = (info.external_attr >> 16) & 0o777
+            if mode:
+                path.chmod(mode)
+    (ag / "submission").mkdir()
+    (ag / "results").mkdir()
+    # Gradescope copies run_autograder next to source/ and runs that copy.
+    shutil.copy2(source / "run_autograder", ag / "run_autograder")
+    return ag
+
+
+def run_autograder(ag: Path, **env) -> dict:
+    full = {**os.environ, "HW4_AUTOGRADER_ROOT": str(ag), "HW4_PYTHON": sys.executable, **env}
+    proc = subprocess.run(["bash", str(ag / "run_autograder")], env=full, capture_output=True, text=True,
+                          timeout=900, check=False)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    text = (ag / "results" / "results.json").read_text()
+    return json.loads(text)
+
+
+def assert_valid_results(data: dict) -> None:
+    """Gradescope's schema, as far as the kit relies on it."""
+    assert isinstance(data["score"], (int, float)) and math.isfinite(data["score"])
+    assert data.get("visibility", "visible") in ("visible", "hidden", "after_due_date", "after_published")
+    assert isinstance(data["output"], str) and data["output"]
+    assert isinstance(data["tests"], list)
+    for t in data["tests"]:
+        assert isinstance(t["name"], str) and t["name"]
+        assert 0 <= t["score"] <= t["max_score"] + 1e-9
+        assert t["status"] in ("passed", "failed")
+        assert t.get("visibility", "visible") in ("visible", "hidden", "after_due_date", "after_published")
+    text = json.dumps(data)
+    assert "Traceback (most recent call last)" not in text
+    config = load_config(environ={"HW4_GRADER_SECRET": SECRET})
+    for secret in [SECRET] + [str(config.seed(label)) for label in SEED_LABELS]:
+        assert secret not in text
+
+
+def put(ag: Path, *files: Path) -> None:
+    for f in files:
+        shutil.copy2(f, ag / "submission" / f.name)
+
+
+# ------------------------------------------------------------------------------------------------
+# the zip
+
+
+def test_bundle_holds_the_scripts_and_the_grader(bundle, names):
+    assert {"setup.sh", "run_autograder", "requirements.txt", "BUNDLE.json"} <= set(names)
+    with zipfile.ZipFile(bundle) as zf:
+        for script in ("setup.sh", "run_autograder"):
+            mode = zf.getinfo(script).external_attr >> 16
+            assert mode & stat.S_IXUSR, f"{script} is not executable"
+            text = zf.read(script).decode()
+            assert text.startswith("#!/usr/bin/env bash") and "@TIME_LIMIT@" not in text and "@VENV@" not in text
+        assert "300" in zf.read("run_autograder").decode()
+        info = json.loads(zf.read("BUNDLE.json"))
+    assert info["time_limit"] == 300
+    for package in gradescope.PACKAGES:
+        assert f"{package}/__init__.py" in names
+    assert "autograder/grade.py" in names and "autograder/child.py" in names
+    assert "kit/manifest.py" in names
+    assert any(n.startswith("data/temple/") for n in names) and any(n.startswith("data/q6/") for n in names)
+
+
+def test_bundle_leaks_nothing_it_does_not_need(bundle, names):
+    forbidden = ("tests/", "notebooks/", "benchmarks/", ".git/", "hw4_twoview_kit.egg-info/")
+    assert not [n for n in names if n.startswith(forbidden)]
+    assert not [n for n in names if "__pycache__" in n or n.endswith((".pyc", ".ipynb"))]
+    # Only the kit modules the grader imports, not the PDF export or the pipeline's command line.
+    assert {"kit/manifest.py", "kit/__init__.py"} <= set(names)
+    assert not {"kit/pdf.py", "kit/pipeline.py", "kit/__main__.py"} & set(names)
+
+
+def test_bundle_carries_the_instructors_secret_in_its_config_only(bundle, names):
+    with zipfile.ZipFile(bundle) as zf:
+        settings = json.loads(zf.read(gradescope.CONFIG_NAME))
+        info = zf.read("BUNDLE.json").decode()
+    assert settings["secret"] == SECRET and "official_data" not in settings
+    assert settings["match_points"] == quick_config().match_points  # the build-time settings, not defaults
+    assert SECRET not in info and json.loads(info)["development_secret"] is False
+
+
+def test_build_refuses_the_development_secret(tmp_path, monkeypatch):
+    monkeypatch.delenv("HW4_GRADER_SECRET", raising=False)
+    monkeypatch.delenv("HW4_GRADER_CONFIG", raising=False)
+    with pytest.raises(ValueError, match="development secret"):
+        gradescope.build_bundle(tmp_path / "autograder.zip")
+    assert not (tmp_path / "autograder.zip").exists()
+
+
+def test_bundle_holds_none_of_the_official_data(bundle):
+    data = course_data_dir()
+    if not data.is_dir():
+        pytest.skip(f"official course data not found at {data}")
+    official = {hashlib.sha256(p.read_bytes()).hexdigest() for p in data.rglob("*") if p.is_file()}
+    with zipfile.ZipFile(bundle) as zf:
+        shipped = {hashlib.sha256(zf.read(n)).hexdigest() for n in zf.namelist() if not n.endswith("/")}
+    assert not official & shipped
+
+
+def test_render_asset_fills_every_field_and_checks_its_arguments():
+    text = gradescope.render_asset("run_autograder", time_limit=123, venv="/opt/x-venv")
+    assert "123" in text and "/opt/x-venv/bin/python" in text and not re.search(r"@[A-Z_]+@", text)
+    with pytest.raises(ValueError, match="time_limit"):
+        gradescope.render_asset("setup.sh", time_limit=0)
+    with pytest.raises(ValueError, match="venv"):
+        gradescope.render_asset("setup.sh", venv="relative/venv")
+    with pytest.raises(ValueError, match="name"):
+        gradescope.render_asset("grade.sh")
+
+
+def test_cli_registers_build_and_run():
+    from autograder.__main__ import build_parser
+
+    build = build_parser().parse_args(["gradescope", "--out", "autograder.zip", "--time-limit", "100"])
+    assert build.func is gradescope._cli and build.action is None and build.time_limit == 100
+    run = build_parser().parse_args(["gradescope", "run", "--root", "/somewhere"])
+    assert run.func is gradescope._cli and run.action == "run" and run.root == "/somewhere"
+
+
+def test_build_refuses_a_path_that_is_not_a_zip(tmp_path):
+    with pytest.raises(ValueError, match="out"):
+        gradescope.build_bundle(tmp_path / "autograder.tar")
+
+
+def test_setup_locks_the_grader_files(bundle, tmp_path):
+    ag = unpack(bundle, tmp_path)
+    env = {**os.environ, "HW4_AUTOGRADER_ROOT": str(ag), "HW4_SETUP_SKIP_INSTALL": "1"}
+    proc = subprocess.run(["bash", str(ag / "source" / "setup.sh")], cwd=ag / "source", env=env,
+                          capture_output=True, text=True, timeout=60, check=False)
+    assert proc.returncode == 0, proc.stderr
+    for path in [ag / "source", *(ag / "source").rglob("*")]:
+        assert path.stat().st_mode & 0o077 == 0, f"{path} is readable by others"
+
+
+# ------------------------------------------------------------------------------------------------
+# run_autograder
+
+
+@pytest.fixture
+def gradescope_dir(bundle, tmp_path) -> Path:
+    return unpack(bundle, tmp_path)
+
+
+@pytest.mark.slow
+def test_answer_key_gets_full_marks(gradescope_dir):
+    key = sorted(KEY.glob("*.ipynb"))
+    assert [p.stem for p in key] == sorted(NOTEBOOKS)
+    put(gradescope_dir, *key)
+    data = run_autograder(gradescope_dir)
+    assert_valid_results(data)
+    assert data["extra_data"]["failure"] is None, data["output"]
+    full = sum(t["max_score"] for t in data["tests"])
+    assert full == pytest.approx(sum(q.points for q in QUESTIONS if not q.by_hand))
+    assert data["score"] == pytest.approx(full)
+    graded = {t["name"].split()[0] for t in data["tests"]}
+    assert graded == set(autograded_question_ids())
+    iso = data["extra_data"]["isolation"]
+    if os.geteuid() == 0:
+        # Student code never runs as root: the sandbox takes a uid of its own.
+        assert iso["uid"] not in (None, 0)
+
+
+@pytest.mark.slow
+def test_untouched_notebooks_score_zero(gradescope_dir):
+    put(gradescope_dir, *sorted(STUDENT.glob("*.ipynb")))
+    data = run_autograder(gradescope_dir)
+    assert_valid_results(data)
+    assert data["score"] == 0 and data["tests"]
+    assert all(t["status"] == "failed" for t in data["tests"])
+
+
+@pytest.mark.slow
+def test_a_zip_of_the_key_inside_the_submission_folder_is_graded(gradescope_dir):
+    with zipfile.ZipFile(gradescope_dir / "submission" / "hw4.zip", "w") as zf:
+        for p in sorted(KEY.glob("q2_*.ipynb")):
+            zf.write(p, f"hw4/{p.name}")
+    data = run_autograder(gradescope_dir)
+    assert_valid_results(data)
+    q2 = [t for t in data["tests"] if t["name"].startswith("Q2 ")]
+    assert q2 and all(t["status"] == "passed" for t in q2)
+    assert 0 < data["score"] < sum(t["max_score"] for t in data["tests"])
+
+
+@pytest.mark.parametrize("case", ["empty", "bad-zip", "unsafe-zip"])
+def test_unusable_submissions_score_zero_with_a_reason(gradescope_dir, case):
+    sub = gradescope_dir / "submission"
+    if case == "bad-zip":
+        (sub / "submission.zip").write_bytes(b"PK\x03\x04 this is not really a zip")
+    elif case == "unsafe-zip":
+        with zipfile.ZipFile(sub / "submission.zip", "w") as zf:
+            zf.writestr("../../q2_eightpoint.ipynb", "{}")
+    data = run_autograder(gradescope_dir)
+    assert_valid_results(data)
+    assert data["score"] == 0 and data["tests"] == []
+    assert "could not grade" in data["output"] and data["extra_data"]["failure"]
+
+
+def test_shell_fallback_when_python_cannot_run(gradescope_dir):
+    put(gradescope_dir, *sorted(KEY.glob("*.ipynb")))
+    data = run_autograder(gradescope_dir, HW4_PYTHON=str(gradescope_dir / "no-such-python"))
+    assert_valid_results(data)
+    assert data["score"] == 0 and "could not grade" in data["output"]
+    assert "exit code 127" in data["extra_data"]["failure"]
+
+
+def test_shell_fallback_when_grading_is_too_slow(gradescope_dir, tmp_path):
+    # A Python that hangs when asked to grade (and only then): the time limit must stop it.
+    slow = tmp_path / "slow-python"
+    slow.write_text(f'#!/bin/sh\nif [ "$1" = "-m" ]; then exec sleep 60; fi\nexec {sys.executable} "$@"\n')
+    slow.chmod(0o755)
+    put(gradescope_dir, *sorted(KEY.glob("*.ipynb")))
+    data = run_autograder(gradescope_dir, HW4_PYTHON=str(slow), HW4_GRADE_TIME_LIMIT="1")
+    assert_valid_results(data)
+    assert data["score"] == 0 and "longer than 1 seconds" in data["output"]
+
+
+def test_broken_kit_still_gives_a_result(gradescope_dir):
+    (gradescope_dir / "source" / "autograder" / "grade.py").write_text("raise ImportError('broken on purpose')\n")
+    put(gradescope_dir, *sorted(KEY.glob("*.ipynb")))
+    data = run_autograder(gradescope_dir)
+    assert_valid_results(data)
+    assert data["score"] == 0 and "internal error" in data["output"] and "broken on purpose" not in data["output"]
