@@ -703,10 +703,17 @@ def output_path(stem: str, variant: str, root: Path | None = None) -> Path:
 
 def build_all(settings: Settings | None = None, *, root: Path | None = None, src_dir: Path | None = None,
               solutions_dir: Path | None = None) -> dict[Path, nbformat.NotebookNode]:
-    """Every notebook of every version: output path (under ``root``) -> notebook."""
-    return {output_path(stem, variant, root): build_notebook(stem, variant, settings, src_dir=src_dir,
-                                                              solutions_dir=solutions_dir)
-            for variant in VARIANTS for stem in NOTEBOOKS}
+    """Every notebook of every version, and the hand-in notebook: output path (under ``root``) -> notebook."""
+    from kit.handin import HAND_IN_NAME, hand_in_notebook
+
+    built = {output_path(stem, variant, root): build_notebook(stem, variant, settings, src_dir=src_dir,
+                                                               solutions_dir=solutions_dir)
+             for variant in VARIANTS for stem in NOTEBOOKS}
+    hand_in = hand_in_notebook((settings or load_settings()).repo_url)
+    for i, cell in enumerate(hand_in.cells):
+        cell["id"] = f"hand-in-{i}"  # fixed, so that a rebuild is identical
+    built[output_path(NOTEBOOKS[0], "student", root).parent / HAND_IN_NAME] = hand_in
+    return built
 
 
 def _dumps(nb: nbformat.NotebookNode) -> str:

@@ -217,6 +217,11 @@ def _student_notebooks(notebooks_dir: Path) -> list[Path]:
         if nbformat.writes(fresh) != nbformat.writes(nb):
             raise ValueError(f"{path} differs from its source: rebuild it (python -m kit notebooks)")
         paths.append(path)
+    from kit.handin import HAND_IN_NAME
+
+    hand_in = notebooks_dir / HAND_IN_NAME
+    if hand_in.exists():
+        paths.append(hand_in)
     return paths
 
 

@@ -516,9 +516,11 @@ def test_release_holds_the_student_kit_only(release):
     assert {p.name for p in out.iterdir()} == set(RELEASE_TOP)
     for gone in ("solutions", "autograder", "tests", "benchmarks"):
         assert not (out / gone).exists()
-    assert sorted(p.name for p in (out / "notebooks").iterdir()) == sorted(f"{s}.ipynb" for s in NOTEBOOKS)
+    assert sorted(p.name for p in (out / "notebooks").iterdir()) == sorted(
+        [f"{s}.ipynb" for s in NOTEBOOKS] + ["hand_in.ipynb"])
     for p in (out / "notebooks").iterdir():
-        assert nbformat.read(p, as_version=4).metadata["hw4_kit"]["variant"] == "student"
+        if p.name != "hand_in.ipynb":
+            assert nbformat.read(p, as_version=4).metadata["hw4_kit"]["variant"] == "student"
     assert not (out / "data" / "official").exists() and (out / "data" / "temple" / "some_corresp.npz").exists()
     assert not (out / "kit" / "pipeline.py").exists() and not (out / "kit" / "notebooks.py").exists()
     assert not any("__pycache__" in p.parts for p in files)

@@ -62,3 +62,25 @@ def test_math_is_rendered_and_the_cover_lists_every_question(printed_key):
     for q in QUESTIONS:
         if q.functions:
             assert q.id in answered
+
+
+def test_the_hand_in_notebook_makes_the_pdf_and_the_zip(tmp_path):
+    _poppler_or_skip()
+    _browser_or_skip()
+    _mathjax_or_skip()
+    import shutil
+
+    from nbclient import NotebookClient
+
+    notebooks = KEY.parent
+    for stem in NOTEBOOKS:
+        shutil.copy(notebooks / f"{stem}.ipynb", tmp_path)
+    nb = nbformat.read(notebooks / "hand_in.ipynb", as_version=4)
+    NotebookClient(nb, timeout=180, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
+    assert (tmp_path / "hw4.pdf").stat().st_size > 10_000
+    import zipfile
+
+    with zipfile.ZipFile(tmp_path / "hw4_code.zip") as z:
+        assert sorted(n.split("/")[-1] for n in z.namelist()) == sorted(f"{s}.ipynb" for s in NOTEBOOKS)
+    # The untouched notebooks are reported as such on the cover, not as answered.
+    assert "Answered: none" in pages_of(tmp_path / "hw4.pdf")[0] or "(0 of" in pages_of(tmp_path / "hw4.pdf")[0]
