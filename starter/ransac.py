@@ -14,7 +14,7 @@ import numpy as np
 from .epipolar import homogeneous
 from .validate import as_points, as_positive_scalar, same_length
 
-__all__ = ["ransac", "RansacResult", "adaptive_trials", "hartley_normalization", "ransacF"]
+__all__ = ["ransac", "RansacResult", "adaptive_trials", "hartley_normalization", "eightpoint_hartley", "ransacF"]
 
 
 def adaptive_trials(inlier_ratio: float, min_samples: int, confidence: float = 0.99) -> float:
@@ -92,6 +92,19 @@ def hartley_normalization(pts: np.ndarray) -> np.ndarray:
     return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1.0]])
 
 
+def eightpoint_hartley(eightpoint: Callable, pts1: np.ndarray, pts2: np.ndarray) -> np.ndarray:
+    """F (3x3, pixels, x2^T F x1 = 0) from ``eightpoint`` run on Hartley-normalised points.
+
+    The same ``eightpoint(pts1, pts2, M)`` is called with M = 1 on points centred and scaled to a
+    mean distance of sqrt(2), and the result is mapped back to pixels.  Not normalised to unit
+    norm; exceptions of ``eightpoint`` propagate.
+    """
+    T1, T2 = hartley_normalization(pts1), hartley_normalization(pts2)
+    n1 = pts1 @ T1[:2, :2].T + T1[:2, 2]
+    n2 = pts2 @ T2[:2, :2].T + T2[:2, 2]
+    return T2.T @ np.asarray(eightpoint(n1, n2, 1.0), dtype=float) @ T1
+
+
 def _without_refinement(eightpoint: Callable) -> Callable:
     # refineF costs tens of ms a call; a minimal sample is fitted exactly, so skip it when we can.
     try:
@@ -157,17 +170,11 @@ def ransacF(pts1, pts2, M, eightpoint: Callable, nIters: int = 1000, tol: float 
         return np.nan_to_num(d, nan=np.inf)
 
     def fit_all(idx):
-        # Hartley normalisation: the same eightpoint, called with M = 1 on centred, scaled points.
-        T1, T2 = hartley_normalization(p1[idx]), hartley_normalization(p2[idx])
-        n1 = p1[idx] @ T1[:2, :2].T + T1[:2, 2]
-        n2 = p2[idx] @ T2[:2, :2].T + T2[:2, 2]
         try:
-            Fn = np.asarray(fit8(n1, n2, 1.0), dtype=float)
+            F = eightpoint_hartley(fit8, p1[idx], p2[idx])
         except (ValueError, np.linalg.LinAlgError):
             return None
-        if Fn.shape != (3, 3) or not np.all(np.isfinite(Fn)):
-            return None
-        return T2.T @ Fn @ T1
+        return F if np.all(np.isfinite(F)) else None
 
     result = ransac(n, fit, residuals, min_samples=8, threshold=tol, rng=rng,
                     max_trials=int(nIters), confidence=confidence, local_fit=fit_all)

@@ -22,6 +22,7 @@ import numpy as np
 from autograder.results import QuestionResult
 from autograder.sandbox import Call
 from starter.checks.mistakes import fundamental_mistakes, mistake, rank2_not_enforced
+from starter.ransac import eightpoint_hartley
 
 from ._common import Malformed, Outcome, as_array, first_problem, fmt, graded
 from .hidden import Scenes, symmetric_distances
@@ -56,19 +57,10 @@ class Prepared:
 
 
 def _hartley(pts1, pts2):
-    """F by the eight-point algorithm with Hartley's normalisation (centroid, mean distance sqrt 2)."""
-    def normaliser(p):
-        c = p.mean(axis=0)
-        s = np.sqrt(2.0) / np.mean(np.linalg.norm(p - c, axis=1))
-        return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1.0]])
+    """F by the reference eight-point with Hartley's normalisation instead of 1/M (a valid variant)."""
+    from solutions import eightpoint
 
-    T1, T2 = normaliser(pts1), normaliser(pts2)
-    h1 = np.column_stack([pts1, np.ones(len(pts1))]) @ T1.T
-    h2 = np.column_stack([pts2, np.ones(len(pts2))]) @ T2.T
-    A = np.einsum("ni,nj->nij", h2, h1).reshape(len(h1), 9)
-    F = np.linalg.svd(A)[2][-1].reshape(3, 3)
-    U, S, Vt = np.linalg.svd(F)
-    F = T2.T @ (U @ np.diag([S[0], S[1], 0.0]) @ Vt) @ T1
+    F = eightpoint_hartley(lambda a, b, M: eightpoint(a, b, M, refine=False), pts1, pts2)
     return F / np.linalg.norm(F)
 
 

@@ -17,21 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.config import GradingConfig
+from starter.data import TempleData
 
-__all__ = ["OfficialTemple", "Scenes", "TempleCase", "TwoView", "make_scenes", "project", "skew", "symmetric_distances"]
-
-
-@dataclass(frozen=True, eq=False)
-class OfficialTemple:
-    """The official temple data (no ground truth): images, intrinsics and the 110 matches (float)."""
-
-    im1: np.ndarray
-    im2: np.ndarray
-    K1: np.ndarray
-    K2: np.ndarray
-    pts1: np.ndarray
-    pts2: np.ndarray
-    M: float
+__all__ = ["Scenes", "TempleCase", "TwoView", "make_scenes", "project", "skew", "symmetric_distances"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,12 +28,12 @@ class TempleCase:
 
     label : how feedback names it ("hidden scene 1", "the default data", "the official data").
     scene : the TempleScene with ground truth, or None for the official data.
-    official : the OfficialTemple when ``scene`` is None.
+    official : the official data as ``starter.TempleData`` (no ground truth) when ``scene`` is None.
     """
 
     label: str
     scene: object = None
-    official: OfficialTemple | None = None
+    official: TempleData | None = None
 
     @property
     def has_truth(self) -> bool:
@@ -138,9 +126,7 @@ def make_scenes(config: GradingConfig) -> Scenes:
     if folder is not None:
         from starter import load_temple
 
-        d = load_temple(folder)
-        official = TempleCase("the official data", None,
-                              OfficialTemple(d.im1, d.im2, d.K1, d.K2, d.pts1, d.pts2, d.M))
+        official = TempleCase("the official data", None, load_temple(folder))
     car = make_car_scene(config.seed("car") % 2**32, n_times=config.car_times, render=False)
     probe_car = make_car_scene(config.seed("car-probe") % 2**32, n_times=2, render=False)
     return Scenes(config, hidden, default, official, car, probe_car, _two_view(hidden[-1].scene))
