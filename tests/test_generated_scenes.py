@@ -68,8 +68,8 @@ def test_ransac_keeps_true_matches_and_rejects_far_outliers(scene):
     truth = scene.inlier_mask
     assert inl[truth].mean() > 0.9
     # Outliers slid along their epipolar line can pass any epipolar test; the others must not.
-    slid = scene.outlier_kind == "epipolar" if scene.outlier_kind.dtype.kind in "US" else None
-    far = ~truth if slid is None else (~truth & ~slid)
+    far = ~truth & (scene.outlier_kind != "epipolar")
+    assert far.sum() > 0
     assert inl[far].mean() < 0.1
 
 
@@ -82,12 +82,11 @@ def test_bundle_adjustment_lowers_the_error_and_recovers_the_shape(scene):
     t_true = scene.M2[:, 3]
     angle = np.degrees(np.arccos(np.clip(M2b[:, 3] @ t_true / np.linalg.norm(t_true), -1, 1)))
     assert angle < 5.0
-    good = inl & scene.inlier_mask
-    X_true = scene.X[scene.noisy_source[good]] if scene.noisy_source.ndim == 1 else None
-    if X_true is not None and np.all(scene.noisy_source[good] >= 0):
-        est = wb[good[inl]] * np.linalg.norm(t_true)
-        rel = np.linalg.norm(est - X_true, axis=1) / np.linalg.norm(X_true, axis=1)
-        assert np.median(rel) < 0.03
+    good = inl & scene.inlier_mask  # kept matches that are true: noisy_source names their 3D point
+    X_true = scene.X[scene.noisy_source[good]]
+    est = wb[good[inl]] * np.linalg.norm(t_true)
+    rel = np.linalg.norm(est - X_true, axis=1) / np.linalg.norm(X_true, axis=1)
+    assert np.median(rel) < 0.03
 
 
 def test_matching_finds_most_temple_points(scene):
