@@ -27,7 +27,8 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from starter.validate import as_positive_scalar
+from core.paths import course_data_dir
+from core.validate import as_positive_scalar
 
 __all__ = [
     "DEV_SECRET", "ENV_CONFIG", "ENV_SECRET", "GRADER_VERSION", "GradingConfig", "TempleSpec",
@@ -40,7 +41,6 @@ DEV_SECRET = "hw4-development-secret-public-do-not-use-for-grading"
 # Bumped whenever a check changes, so that resumed batches regrade what was graded before.
 GRADER_VERSION = "1"
 
-_KIT_ROOT = Path(__file__).resolve().parents[1]
 
 
 @dataclass(frozen=True)
@@ -116,11 +116,8 @@ class GradingConfig:
 
     def official_dir(self) -> Path | None:
         """The official data folder when it holds the temple files, else None."""
-        path = self.official_data
-        if path is None:
-            env = os.environ.get("HW4_COURSE_DATA")
-            path = Path(env) if env else _KIT_ROOT.parent / "shared" / "course-data"
-        return path if (Path(path) / "temple" / "some_corresp.npz").is_file() else None
+        path = self.official_data if self.official_data is not None else course_data_dir()
+        return path if path is not None and (Path(path) / "temple" / "some_corresp.npz").is_file() else None
 
     def fingerprint(self) -> str:
         """A digest of everything that changes grades (secret included, never shown in clear)."""

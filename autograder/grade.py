@@ -27,7 +27,6 @@ import os
 import re
 import shutil
 import sys
-import tempfile
 import threading
 import time
 import traceback
@@ -37,7 +36,8 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
-from kit.manifest import NOTEBOOKS, QUESTIONS, functions_of_notebook
+from core.manifest import NOTEBOOKS, QUESTIONS, functions_of_notebook
+from core.text import points, write_atomic
 
 from .config import GRADER_VERSION, GradingConfig, load_config
 from .results import SubmissionResult, autograded_question_ids, csv_header
@@ -233,23 +233,12 @@ def _resumable(folder: Path, digest: str, fingerprint: str) -> dict | None:
     return state
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}-")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _write_outputs(folder: Path, result: SubmissionResult, state: dict) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     result.write_gradescope(folder / "results.json")
-    _atomic_write(folder / "feedback.md", result.feedback_markdown())
+    write_atomic(folder / "feedback.md", result.feedback_markdown())
     # grading.json last: its presence with a matching digest is what marks the work as done.
-    _atomic_write(_state_path(folder), json.dumps(state, indent=2, allow_nan=False, default=str))
+    write_atomic(_state_path(folder), json.dumps(state, indent=2, allow_nan=False, default=str))
 
 
 def _state(result: SubmissionResult, path: Path, digest: str, fingerprint: str, staff: dict) -> dict:
@@ -408,12 +397,8 @@ def write_grades_csv(path: Path, records: Sequence[BatchRecord]) -> Path:
         writer.writerow(csv_header(ids))
         for r in records:
             scores = [0.0 if r.failure else float(r.scores.get(q, 0.0)) for q in ids]
-            writer.writerow([r.name, _fmt(0.0 if r.failure else r.score)] + [_fmt(s) for s in scores])
+            writer.writerow([r.name, points(0.0 if r.failure else r.score)] + [points(s) for s in scores])
     return path
-
-
-def _fmt(x: float) -> str:
-    return f"{round(x, 4):g}"
 
 
 # ------------------------------------------------------------------------------- the answer key

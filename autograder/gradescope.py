@@ -19,7 +19,7 @@ Contents of the zip (paths relative to /autograder/source):
 ``autograder/`` ``solutions/``        whole packages, without ``__pycache__``
 ``starter/`` ``scenes/``
 ``kit/``                              only ``__init__.py`` and the modules the packages above
-                                      import (``kit.manifest``...), found by reading their imports
+                                      import (``core.manifest``...), found by reading their imports
 ``data/``                             the kit's default data (generated when the kit's is empty)
 ``grader_config.json``                the instructor's grading settings at build time, with the
                                       secret all hidden seeds derive from (``autograder.config``)
@@ -69,7 +69,7 @@ __all__ = [
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 ASSETS = Path(__file__).resolve().with_name("gradescope_assets")
-PACKAGES = ("autograder", "solutions", "starter", "scenes")
+PACKAGES = ("autograder", "solutions", "core", "starter", "scenes")
 DEFAULT_TIME_LIMIT = 540   # seconds: below Gradescope's default 10-minute limit, room for the fallback
 DEFAULT_VENV = "/opt/hw4-venv"
 _SCRIPTS = ("setup.sh", "run_autograder")

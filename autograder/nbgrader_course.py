@@ -57,7 +57,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from kit.manifest import NOTEBOOKS, QUESTIONS, Question, question
+from core.manifest import NOTEBOOKS, QUESTIONS, Question, question
 
 from .gradescope import CONFIG_NAME, KIT_ROOT, config_file, data_files, grader_files, hideable
 

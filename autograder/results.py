@@ -30,7 +30,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from kit.manifest import QUESTIONS, question
+from core.manifest import QUESTIONS, question
+from core.text import points
 
 __all__ = [
     "VISIBILITIES",
@@ -244,10 +245,10 @@ class SubmissionResult:
         if self.failure:
             return (f"**The autograder could not grade this submission**, so it scores 0 for now.\n\n"
                     f"Reason: {self.failure}\n\nPlease check your files and resubmit, or contact the course staff.")
-        lines = [f"**Autograded total: {_fmt(self.score)} / {_fmt(self.max_score)}**"]
+        lines = [f"**Autograded total: {points(self.score)} / {points(self.max_score)}**"]
         if any(q.extra_credit for q in self.questions):
             extra = sum(q.score for q in self.questions if q.extra_credit)
-            lines[0] += f" (including {_fmt(extra)} extra credit)"
+            lines[0] += f" (including {points(extra)} extra credit)"
         if self.notes:
             lines += ["", "Notes on your files:"] + [f"- {n}" for n in self.notes]
         return "\n".join(lines)
@@ -260,17 +261,17 @@ class SubmissionResult:
         title = "# Autograder feedback" + (f" for {self.student_id}" if self.student_id else "")
         parts = [title, "", self._summary_markdown()]
         for q in ([] if self.failure else self.questions):
-            head = f"## {q.id} {q.title}: {_fmt(q.score)} / {_fmt(q.max_score)}"
+            head = f"## {q.id} {q.title}: {points(q.score)} / {points(q.max_score)}"
             parts += ["", head + (" (extra credit)" if q.extra_credit else "")]
             parts += [f"- {n}" for n in q.notes]
             shown = [t for t in q.tests if audience == "staff" or t.visibility != "hidden"]
             hidden = [t for t in q.tests if t not in shown]
             if shown:
                 parts += ["", "| Check | Score | Result |", "|---|---|---|"]
-                parts += [f"| {_cell(t.name)} | {_fmt(t.score)} / {_fmt(t.max_score)} | "
+                parts += [f"| {_cell(t.name)} | {points(t.score)} / {points(t.max_score)} | "
                           f"{'passed' if t.passed else 'failed'} |" for t in shown]
             if hidden:
-                hidden_score = f"{_fmt(sum(t.score for t in hidden))} / {_fmt(sum(t.max_score for t in hidden))}"
+                hidden_score = f"{points(sum(t.score for t in hidden))} / {points(sum(t.max_score for t in hidden))}"
                 parts += ["", f"{len(hidden)} hidden check(s): {hidden_score}"]
             details = [t for t in shown if t.feedback]
             if details:
@@ -291,7 +292,7 @@ class SubmissionResult:
         ids = list(question_ids) if question_ids is not None else autograded_question_ids()
         by_id = {q.id: q for q in self.questions}
         scores = [0.0 if self.failure or qid not in by_id else by_id[qid].score for qid in ids]
-        return [self.student_id or "", _fmt(self.score)] + [_fmt(s) for s in scores]
+        return [self.student_id or "", points(self.score)] + [points(s) for s in scores]
 
 
 def autograded_question_ids() -> list[str]:
@@ -315,10 +316,6 @@ def write_csv(path: str | Path, results: Iterable[SubmissionResult],
         for r in results:
             writer.writerow(r.csv_row(question_ids))
     return path
-
-
-def _fmt(x: float) -> str:
-    return f"{round(x, 4):g}"
 
 
 def _cell(text: str) -> str:

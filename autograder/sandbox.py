@@ -244,7 +244,7 @@ class Sandbox:
     _uids_lock: ClassVar[threading.Lock] = threading.Lock()
 
     def __init__(self, kit_root: str | Path | None = None, *, hidden: Sequence[str | Path] = (),
-                 packages: Sequence[str] = ("starter", "scenes"), limits: ResourceLimits = ResourceLimits(),
+                 packages: Sequence[str] = ("core", "starter", "scenes"), limits: ResourceLimits = ResourceLimits(),
                  isolation: str = "auto", private_tmp: bool = True, uid: int | None = None):
         if isolation not in ("auto",) + _LEVELS:
             raise ValueError(f"isolation: expected 'auto' or one of {_LEVELS}, got {isolation!r}")

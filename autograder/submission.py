@@ -27,7 +27,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
-from kit.manifest import NOTEBOOKS, functions_of_notebook
+from core.manifest import NOTEBOOKS, functions_of_notebook
 
 __all__ = [
     "CellProblem",

@@ -31,7 +31,7 @@ from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_outp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
 from kit import pdf  # noqa: E402
-from kit.manifest import NOTEBOOKS, QUESTIONS  # noqa: E402
+from core.manifest import NOTEBOOKS, QUESTIONS  # noqa: E402
 
 GOAL_S = 60.0
 FORMULAS = [

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import nbformat
 
-from kit.manifest import NOTEBOOKS, functions_of_notebook
+from core.manifest import NOTEBOOKS, functions_of_notebook
 
 __all__ = [
     "NotebookInfo",

@@ -11,7 +11,7 @@ Two inputs, each written once:
 Source format
 -------------
 Markdown, split into cells by a line ``+++`` and before every question heading.  A question
-heading is written bare (``## Q3.2``); the builder completes it from ``kit.manifest``
+heading is written bare (``## Q3.2``); the builder completes it from ``core.manifest``
 (``## Q3.2 Triangulation [10 points]``), so titles and points live in one place.  Fenced blocks
 opened by these lines become special cells (any other fence stays markdown):
 
@@ -52,7 +52,7 @@ from pathlib import Path
 
 import nbformat
 
-from kit.manifest import (
+from core.manifest import (
     NOTEBOOKS,
     QUESTION_HEADING,
     QUESTIONS,
@@ -218,7 +218,7 @@ def parse_source(text: str, name: str = "<source>") -> list[Block]:
         else:
             if not in_md_fence and re.match(QUESTION_HEADING, line):
                 raise SourceError(f"{name}, line {lineno}: write the question heading bare ('## Q2'); "
-                                  f"the title and points come from kit.manifest, got {line!r}")
+                                  f"the title and points come from core.manifest, got {line!r}")
             md.append(line)
         i += 1
     flush(len(lines) + 1)
@@ -545,7 +545,7 @@ def _block_to_cells(block: Block, st: _State, where: str) -> list[nbformat.Noteb
         hashes, qid = m.groups()
         q = next((q for q in QUESTIONS if q.id == qid), None)
         if q is None or q.notebook != st.stem:
-            raise SourceError(f"{where}: heading {qid} is not a question of {st.stem} in kit.manifest")
+            raise SourceError(f"{where}: heading {qid} is not a question of {st.stem} in core.manifest")
         if qid in st.seen_questions:
             raise SourceError(f"{where}: heading {qid} appears twice")
         st.question = q
@@ -648,7 +648,7 @@ def build_notebook(stem: str, variant: str, settings: Settings | None = None, *,
 
     Parameters
     ----------
-    stem : a notebook of kit.manifest ("q2_eightpoint").
+    stem : a notebook of core.manifest ("q2_eightpoint").
     variant : "student", "key" or "nbgrader".
     settings : the course repository (default: notebooks/src/settings.json).
     src_dir, solutions_dir : where the sources and the reference functions are (tests use copies).

@@ -4,7 +4,7 @@ The notebooks are joined into one document in manifest order, turned into HTML b
 (the lab template, extended in ``pdf_assets/hw4pdf``) and printed by a headless Chromium.
 What nbconvert's own PDF routes get wrong for this homework is fixed on the way:
 
-- every question heading (``kit.manifest.QUESTION_HEADING``) and every notebook starts a new
+- every question heading (``core.manifest.QUESTION_HEADING``) and every notebook starts a new
   page, after a cover page that names the student and lists the questions answered;
 - each output keeps one printable representation: a PNG/SVG/JPEG wins over HTML and plotly
   JSON; widget outputs give way to the static image the notebook shows beside them, and an
@@ -45,7 +45,7 @@ from nbconvert.preprocessors import CoalesceStreamsPreprocessor, Preprocessor
 from traitlets import Int
 
 from kit.bundle import NotebookInfo, build_bundle, inspect_notebook, select_notebooks, student_name
-from kit.manifest import QUESTION_HEADING, QUESTIONS, Question
+from core.manifest import QUESTION_HEADING, QUESTIONS, Question
 
 __all__ = [
     "BrowserNotFoundError",

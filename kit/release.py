@@ -22,7 +22,7 @@ from pathlib import Path
 
 import nbformat
 
-from kit.manifest import NOTEBOOKS, QUESTIONS
+from core.manifest import NOTEBOOKS, QUESTIONS
 
 __all__ = ["RELEASE_TOP", "STUDENT_KIT_FILES", "leaks", "reference_bodies", "write_release"]
 
@@ -32,7 +32,7 @@ KIT_ROOT = Path(__file__).resolve().parents[1]
 # reads solutions/.
 STUDENT_KIT_FILES = ("__init__.py", "__main__.py", "manifest.py", "bundle.py", "pdf.py", "pdf_assets")
 # Everything the release writes at its top level (and all that --force may replace).
-RELEASE_TOP = ("starter", "scenes", "data", "kit", "notebooks", "requirements.txt", "pyproject.toml",
+RELEASE_TOP = ("core", "starter", "scenes", "data", "kit", "notebooks", "requirements.txt", "pyproject.toml",
                "README.md", ".gitignore")
 _SKIP_NAMES = {"__pycache__", ".ipynb_checkpoints", ".DS_Store", ".pytest_cache"}
 _SKIP_SUFFIXES = {".pyc", ".pyo"}
@@ -52,7 +52,7 @@ requires-python = ">=3.10"
 dynamic = ["dependencies"]
 
 [tool.setuptools]
-packages = ["starter", "starter.checks", "scenes", "kit"]
+packages = ["core", "starter", "starter.checks", "scenes", "kit"]
 
 [tool.setuptools.dynamic]
 dependencies = {{ file = ["requirements.txt"] }}
@@ -280,6 +280,7 @@ def write_release(out, *, data=None, force: bool = False) -> list[Path]:
     notebooks = _student_notebooks(kit / "notebooks")
 
     out.mkdir(parents=True, exist_ok=True)
+    _copy_tree(kit / "core", out / "core")
     _copy_tree(kit / "starter", out / "starter")
     _copy_tree(kit / "scenes", out / "scenes")
     _copy_tree(data, out / "data", exclude_top=_DATA_EXCLUDE)

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.geometry import camera_center, depths, project
+
 __all__ = ["intrinsics", "look_at", "projection", "project", "depths", "camera_center", "rotation_about"]
 
 
@@ -38,31 +40,14 @@ def look_at(center, target, up=(0.0, -1.0, 0.0)) -> np.ndarray:
     return np.hstack([R, (-R @ c)[:, None]])
 
 
+def projection(K: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """C = K @ M (3x4)."""
+    return np.asarray(K, float) @ np.asarray(M, float)
+
+
 def rotation_about(axis, angle: float) -> np.ndarray:
     """Rotation matrix (3x3) of ``angle`` radians about the unit vector ``axis`` (3,)."""
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
     return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
-
-
-def projection(K: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """C = K @ M (3x4)."""
-    return np.asarray(K, float) @ np.asarray(M, float)
-
-
-def project(C: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """Project world points X (N, 3) with C (3x4); return pixels (N, 2) as (x, y) = (column, row)."""
-    X = np.asarray(X, float)
-    h = X @ C[:, :3].T + C[:, 3]
-    return h[:, :2] / h[:, 2:3]
-
-
-def depths(M: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """Depth (N,) of world points X (N, 3) along the optical axis of the camera M = [R | t]."""
-    return np.asarray(X, float) @ M[2, :3] + M[2, 3]
-
-
-def camera_center(M: np.ndarray) -> np.ndarray:
-    """World position (3,) of the centre of the camera M = [R | t]: -R^T t."""
-    return -M[:, :3].T @ M[:, 3]

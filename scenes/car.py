@@ -13,7 +13,7 @@ Frames and conventions
   and the official files' habit (cameras with R close to upright) both hold.
 - Car frame: (forward, left, up), metres, origin on the ground under the middle of the car.
 - M = [R | t] (3x4) maps world to camera coordinates, C = K M, pixels are (x, y) = (column, row).
-- Keypoint order is ``starter.skeleton.CAR_KEYPOINTS``: wheel hubs (outer face of each wheel),
+- Keypoint order is ``core.skeleton.CAR_KEYPOINTS``: wheel hubs (outer face of each wheel),
   head- and taillights (centres of the lamps), roof corners.
 
 Observation model (what makes the confidence threshold of Q6.1 matter)
@@ -38,7 +38,7 @@ from PIL import Image
 
 from scenes.cameras import camera_center, depths, intrinsics, look_at, project, projection, rotation_about
 from scenes.painter import Face, Layer, Quads, face_normal, orient_outward, render
-from starter.skeleton import CAR_KEYPOINTS
+from core.skeleton import CAR_KEYPOINTS
 
 __all__ = [
     "CarModel",

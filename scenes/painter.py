@@ -20,7 +20,7 @@ from typing import Sequence
 import numpy as np
 from PIL import Image, ImageDraw
 
-from starter.validate import as_matrix
+from core.validate import as_matrix
 
 __all__ = ["Face", "Quads", "Layer", "face_normal", "orient_outward", "render"]
 

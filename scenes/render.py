@@ -33,7 +33,7 @@ import numpy as np
 import scipy.fft
 from scipy import ndimage
 
-from starter.validate import as_matrix, as_points, as_positive_scalar
+from core.validate import as_matrix, as_points, as_positive_scalar
 
 from .cameras import camera_center
 

@@ -33,7 +33,7 @@ from PIL import Image
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from starter.validate import as_positive_scalar
+from core.validate import as_positive_scalar
 
 from .cameras import (
     camera_center,

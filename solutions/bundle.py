@@ -6,7 +6,7 @@ import numpy as np
 import scipy.optimize
 
 from starter import invRodrigues, rodrigues
-from starter.validate import as_matrix, as_points, same_length
+from core.validate import as_matrix, as_points, same_length
 
 __all__ = ["rodriguesResidual", "bundleAdjustment"]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from starter.validate import as_matrix, as_points
+from core.validate import as_matrix, as_points
 
 from .triangulation import triangulate
 

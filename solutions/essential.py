@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from starter.validate import as_matrix
+from core.validate import as_matrix
 
 __all__ = ["essentialMatrix"]
 

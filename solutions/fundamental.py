@@ -6,7 +6,7 @@ import numpy as np
 
 from starter import refineF
 from starter.epipolar import enforce_rank2
-from starter.validate import DegenerateInputError, as_points, as_positive_scalar, same_length
+from core.validate import DegenerateInputError, as_points, as_positive_scalar, same_length
 
 __all__ = ["eightpoint"]
 

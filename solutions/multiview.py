@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
-from starter.validate import as_finite_scalar, as_matrix, as_points, same_length
+from core.validate import as_finite_scalar, as_matrix, as_points, same_length
 
 __all__ = ["MultiviewReconstruction", "plot_3d_keypoint_video"]
 

@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 
 from starter import camera2
-from starter.validate import as_matrix, as_points, same_length
+from core.validate import as_matrix, as_points, same_length
 
 from .essential import essentialMatrix
 from .triangulation import triangulate

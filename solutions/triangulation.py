@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from starter.validate import as_matrix, as_points, same_length
+from core.validate import as_matrix, as_points, same_length
 
 __all__ = ["triangulate"]
 

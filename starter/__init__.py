@@ -11,8 +11,8 @@ from .keypoints import plot_3d_keypoint, plot_3d_keypoint_frames, visualize_keyp
 from .pose import camera2
 from .ransac import ransacF
 from .rotations import invRodrigues, rodrigues
-from .skeleton import CAR_KEYPOINTS, CAR_SKELETON
-from .validate import DegenerateInputError
+from core.skeleton import CAR_KEYPOINTS, CAR_SKELETON
+from core.validate import DegenerateInputError
 
 __all__ = [
     "refineF", "camera2", "ransacF", "rodrigues", "invRodrigues", "epipolar_distances",

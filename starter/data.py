@@ -20,20 +20,9 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from core.paths import data_root
+
 __all__ = ["data_root", "TempleData", "CarFrame", "load_temple", "load_car_frame", "car_times", "load_image"]
-
-KIT_ROOT = Path(__file__).resolve().parents[1]
-
-
-def data_root(root: str | os.PathLike | None = None) -> Path:
-    """The data folder: ``root`` if given, else $HW4_DATA, else the kit's data/."""
-    if root is None:
-        root = os.environ.get("HW4_DATA") or KIT_ROOT / "data"
-    path = Path(root).expanduser()
-    if not path.is_dir():
-        raise FileNotFoundError(f"root: expected a data folder, but {path} is not a directory")
-    return path
-
 
 def _temple_dir(root: Path) -> Path:
     for cand in (root / "temple", root):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
-from .validate import as_matrix, as_points, same_length
+from core.validate import as_matrix, as_points, same_length
 
 __all__ = ["homogeneous", "enforce_rank2", "epipolar_distances", "symmetric_epipolar_cost", "refineF"]
 

@@ -37,7 +37,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .validate import as_points
+from core.validate import as_points
 
 __all__ = ["Figure3D", "plot_points_3d", "points_with_gaps", "DEFAULT_COLORS", "plotly_cdn_url"]
 
@@ -217,7 +217,7 @@ class Figure3D:
 def points_with_gaps(value, name: str) -> np.ndarray:
     """Return ``value`` as float64 (N, 3), where a row holding any NaN marks a missing point.
 
-    Everything else goes through :func:`starter.validate.as_points`, so a wrong shape, a
+    Everything else goes through :func:`core.validate.as_points`, so a wrong shape, a
     non-numeric array or an infinite value raises the usual ValueError naming ``name``.
     The returned array has every coordinate of a missing row set to NaN.
     """
@@ -416,7 +416,7 @@ def plot_points_3d(points, labels=None, title: str = "", *, edges=None, layout: 
         Figure title.
     edges : array_like of int, shape (E, 2), optional
         Index pairs (i, j) joined by a line in every point set (a skeleton such as
-        ``starter.skeleton.CAR_SKELETON``).
+        ``core.skeleton.CAR_SKELETON``).
     layout : {"overlay", "side_by_side"}
         All sets in one 3D view, or one view per set (bundle adjustment before/after).
     colors : sequence of colours, optional

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validate import DegenerateInputError, as_finite_scalar, as_image, as_matrix, as_points, as_positive_scalar
+from core.validate import DegenerateInputError, as_finite_scalar, as_image, as_matrix, as_points, as_positive_scalar
 
 __all__ = [
     "epipolar_line",

@@ -1,7 +1,7 @@
 """Figures of the car keypoints of problem 6: 2D detections on an image, one 3D frame, a video.
 
 Keypoint arrays follow ``q6/time{t}.npz``: row k is keypoint ``CAR_KEYPOINTS[k]``
-(``starter.skeleton``), pixel rows are (x, y, confidence) with x the column and y the row, and
+(``core.skeleton``), pixel rows are (x, y, confidence) with x the column and y the row, and
 3D rows are (X, Y, Z) in the world frame of the cameras' extrinsics.  A 3D row of NaN is a
 keypoint that was not reconstructed (all its detections were below the confidence threshold):
 it is skipped, and so is every skeleton edge that touches it.
@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from .figures import DEFAULT_COLORS, Figure3D, plot_points_3d, points_with_gaps
-from .skeleton import CAR_KEYPOINTS, CAR_SKELETON
-from .validate import as_finite_scalar, as_image, as_points
+from core.skeleton import CAR_KEYPOINTS, CAR_SKELETON
+from core.validate import as_finite_scalar, as_image, as_points
 
 __all__ = ["visualize_keypoints", "plot_3d_keypoint", "plot_3d_keypoint_frames"]
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .validate import DegenerateInputError, as_matrix
+from core.validate import DegenerateInputError, as_matrix
 
 __all__ = ["camera2"]
 

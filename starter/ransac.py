@@ -12,7 +12,7 @@ from typing import Callable
 import numpy as np
 
 from .epipolar import homogeneous
-from .validate import as_points, as_positive_scalar, same_length
+from core.validate import as_points, as_positive_scalar, same_length
 
 __all__ = ["ransac", "RansacResult", "adaptive_trials", "hartley_normalization", "eightpoint_hartley", "ransacF"]
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .validate import as_matrix
+from core.validate import as_matrix
 
 __all__ = ["rodrigues", "invRodrigues"]
 

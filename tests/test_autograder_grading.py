@@ -39,7 +39,7 @@ from autograder.results import autograded_question_ids
 from autograder.sandbox import CallOutcome, ResourceLimits, Sandbox, _live_pids_of_uid
 from autograder.submission import load_submission
 from autograder.tests import HELPER_UNIT, all_calls, build_hidden_inputs, judge_all
-from kit.manifest import NOTEBOOKS, question
+from core.manifest import NOTEBOOKS, question
 
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 QIDS = autograded_question_ids()

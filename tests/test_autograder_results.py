@@ -16,7 +16,7 @@ from autograder.results import (
     csv_header,
     write_csv,
 )
-from kit.manifest import QUESTIONS, question
+from core.manifest import QUESTIONS, question
 
 TRACEBACK = (
     "Traceback (most recent call last):\n"

@@ -23,7 +23,7 @@ from autograder.submission import (
     parse_notebook,
     parse_python,
 )
-from kit.manifest import NOTEBOOKS, functions_of_notebook
+from core.manifest import NOTEBOOKS, functions_of_notebook
 
 
 def notebook_bytes(*cells) -> bytes:

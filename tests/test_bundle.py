@@ -10,7 +10,7 @@ import pytest
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_output
 
 from kit.bundle import build_bundle, inspect_notebook, select_notebooks, student_name
-from kit.manifest import NOTEBOOKS, functions_of_notebook
+from core.manifest import NOTEBOOKS, functions_of_notebook
 
 
 def _implemented(name: str) -> str:

@@ -41,7 +41,11 @@ def test_arrays_are_identical(regenerated):
                 assert a.files == b.files, name
                 for k in a.files:
                     assert a[k].dtype == b[k].dtype, (name, k)
-                    np.testing.assert_array_equal(a[k], b[k], err_msg=f"{name}:{k}")
+                    if a[k].dtype.kind == "f":
+                        # Camera matrices pass through BLAS, whose last bit differs between CPUs.
+                        np.testing.assert_allclose(a[k], b[k], rtol=1e-12, atol=1e-12, err_msg=f"{name}:{k}")
+                    else:
+                        np.testing.assert_array_equal(a[k], b[k], err_msg=f"{name}:{k}")
 
 
 def test_images_are_identical(regenerated):

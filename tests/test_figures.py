@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from starter.figures import Figure3D, plot_points_3d, plotly_cdn_url
 from starter.keypoints import plot_3d_keypoint, plot_3d_keypoint_frames, visualize_keypoints
-from starter.skeleton import CAR_SKELETON
+from core.skeleton import CAR_SKELETON
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 PLOTLY_MIME = "application/vnd.plotly.v1+json"

@@ -25,7 +25,7 @@ import pytest
 from autograder import gradescope
 from autograder.config import load_config, quick_config
 from autograder.results import autograded_question_ids
-from kit.manifest import NOTEBOOKS, QUESTIONS
+from core.manifest import NOTEBOOKS, QUESTIONS
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 KEY = KIT_ROOT / "notebooks" / "key"

@@ -19,7 +19,7 @@ from starter.interactive import (
     epipolar_line_endpoints,
     epipolarMatchGUI,
 )
-from starter.validate import DegenerateInputError
+from core.validate import DegenerateInputError
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 W, H = 160, 120

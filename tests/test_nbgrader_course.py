@@ -21,7 +21,7 @@ import pytest
 
 from autograder import nbgrader_course as nc
 from autograder.config import quick_config
-from kit.manifest import NOTEBOOKS, QUESTIONS, question
+from core.manifest import NOTEBOOKS, QUESTIONS, question
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 SOURCE = KIT_ROOT / "notebooks" / "nbgrader" / "source" / "hw4"

@@ -20,7 +20,7 @@ import tomllib
 
 import solutions
 from kit import notebooks as nbk
-from kit.manifest import NOTEBOOKS, QUESTION_HEADING, QUESTIONS, functions_of_notebook
+from core.manifest import NOTEBOOKS, QUESTION_HEADING, QUESTIONS, functions_of_notebook
 from kit.release import RELEASE_TOP, leaks, reference_bodies, write_release
 from scenes.cameras import project
 from starter.notebook_import import from_notebook, notebook_definitions, try_run
@@ -392,7 +392,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 import scipy.sparse
-from starter.validate import as_matrix, as_points
+from core.validate import as_matrix, as_points
 
 from .triangulation import triangulate
 
@@ -423,7 +423,7 @@ def test_extract_function_takes_helpers_and_trims_imports(tmp_path):
     ext = nbk.extract_function("findM2", tmp_path)
     assert ext.module == "pose" and ext.needs == ("triangulate",)
     assert [name for name, _ in ext.helpers] == ["_SCALE", "_square", "_twice"]
-    assert ext.imports == ("import numpy as np", "import scipy.optimize", "from starter.validate import as_matrix")
+    assert ext.imports == ("import numpy as np", "import scipy.optimize", "from core.validate import as_matrix")
     assert ext.header.endswith('"""Docstring: the contract."""')
     assert ext.body.splitlines()[0] == '    F = as_matrix(F, "F", (3, 3))'
     (tmp_path / "pose.py").write_text(FAKE_SOLUTION.replace("from .triangulation import triangulate",

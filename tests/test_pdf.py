@@ -25,7 +25,7 @@ from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_outp
 
 from kit import pdf
 from kit.bundle import inspect_notebook
-from kit.manifest import QUESTIONS
+from core.manifest import QUESTIONS
 
 NAME = "Ada Lovelace"
 # No hyphens: pdftotext joins a line that wraps after "-" to the next one and drops the hyphen.

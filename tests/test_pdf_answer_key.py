@@ -10,7 +10,7 @@ import nbformat
 import pytest
 
 from kit import pdf
-from kit.manifest import NOTEBOOKS, QUESTIONS
+from core.manifest import NOTEBOOKS, QUESTIONS
 
 from test_pdf import _browser_or_skip, _mathjax_or_skip, _poppler_or_skip, first_line, pages_of
 

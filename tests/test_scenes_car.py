@@ -13,7 +13,7 @@ from PIL import Image
 from scenes.cameras import camera_center
 from scenes.car import (CONFIDENCE_LEVELS, car_keypoints, car_rotation, confidence_sigma, make_car_scene,
                         official_arrays, render_view, write_car)
-from starter.skeleton import CAR_KEYPOINTS
+from core.skeleton import CAR_KEYPOINTS
 
 OFFICIAL_NAMES = ["pts1", "pts2", "pts3", "M1", "M2", "M3", "K1", "K2", "K3"]
 SEEDS = range(6)

@@ -21,7 +21,7 @@ from autograder.config import GradingConfig
 from autograder.results import QuestionResult, TestResult
 from autograder.sandbox import Call
 from autograder.submission import SourceUnit
-from kit.manifest import QUESTIONS, question
+from core.manifest import QUESTIONS, question
 
 from . import (
     bundle,

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import nbformat
 
-from kit.manifest import NOTEBOOKS
+from core.manifest import NOTEBOOKS
 
 from . import hostile, variants
 
