@@ -83,7 +83,7 @@ def test_normal_job_round_trips_exactly(box, rng):
 def test_student_can_import_numpy_scipy_matplotlib_and_the_kit(box):
     src = (
         "import numpy as np\nimport scipy.optimize\nimport matplotlib.pyplot as plt\n"
-        "from starter import validate\nimport scenes.cameras\n"
+        "from core import validate\nimport scenes.cameras\n"
         "def f():\n"
         "    plt.figure(); plt.plot([0, 1]); plt.show()\n"
         "    return validate.as_points([[1, 2]], 'p').dtype.name, scipy.optimize.brentq(lambda x: x - 2, 0, 5)\n"
