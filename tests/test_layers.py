@@ -1,0 +1,161 @@
+"""Imports go only downward: every import of the shipped packages, also those inside functions.
+
+The layers, bottom to top (README, "Layers"): a module may import its own package and any lower
+layer, never a higher one and never a sibling of its own layer.  Each edge is read from the
+source with ``ast`` (no module is imported), relative imports resolved, so an import hidden in a
+function body counts like any other.  A second test looks for circles between modules.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+KIT = Path(__file__).resolve().parents[1]
+
+# (layer, package); a dotted package is its own layer apart from its parent.
+LAYERS: tuple[tuple[int, str], ...] = (
+    (0, "core"),
+    (1, "scenes"),
+    (2, "starter"),
+    (3, "judging"),
+    (4, "starter.checks"),
+    (4, "handin"),
+    (5, "solutions"),
+    (6, "kit"),
+    (7, "autograder"),
+)
+PACKAGES = sorted({name.split(".")[0] for _, name in LAYERS})
+
+
+def package_of(module: str) -> tuple[int, str] | None:
+    """The (layer, package) a dotted module name belongs to: the longest matching package."""
+    best = None
+    for layer, name in LAYERS:
+        if module == name or module.startswith(name + "."):
+            if best is None or len(name) > len(best[1]):
+                best = (layer, name)
+    return best
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(KIT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def imports_of(path: Path) -> list[tuple[int, str]]:
+    """(line, imported dotted name) for every import in the file, relative ones resolved."""
+    mod = module_name(path)
+    package = mod.split(".") if path.name == "__init__.py" else mod.split(".")[:-1]
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            # "from pkg import mod" may name a submodule: count the most specific name.
+            found += [(node.lineno, f"{target}.{a.name}" if a.name != "*" else target) for a in node.names]
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+              and node.func.attr == "import_module" and node.args
+              and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+            found.append((node.lineno, node.args[0].value))
+    return found
+
+
+def shipped_files() -> list[Path]:
+    return sorted(p for pkg in PACKAGES if (KIT / pkg).is_dir() for p in (KIT / pkg).rglob("*.py")
+                  if "__pycache__" not in p.parts)
+
+
+def kit_edges() -> list[tuple[str, int, str, str]]:
+    """(file, line, importing module, imported kit module) for every import between kit packages."""
+    edges = []
+    for path in shipped_files():
+        src = module_name(path)
+        for line, target in imports_of(path):
+            if target.split(".")[0] in PACKAGES:
+                edges.append((str(path.relative_to(KIT)), line, src, target))
+    return edges
+
+
+def test_every_shipped_package_has_a_layer():
+    tops = {p.parent.name for p in KIT.glob("*/__init__.py")}
+    assert tops - {"tests", "benchmarks"} <= set(PACKAGES), f"packages without a layer: {tops - set(PACKAGES)}"
+
+
+def test_the_reader_sees_imports_inside_functions(tmp_path, monkeypatch):
+    # The checker itself must not miss a hidden import, or the next test proves nothing.
+    probe = KIT / "scenes" / "_layer_probe_tmp.py"
+    monkeypatch.setattr("tests.test_layers.shipped_files", lambda: [probe])
+    probe.write_text("def f():\n    from starter import data\n    return data\n", encoding="utf-8")
+    try:
+        edges = kit_edges()
+    finally:
+        probe.unlink()
+    assert ("scenes/_layer_probe_tmp.py", 2, "scenes._layer_probe_tmp", "starter.data") in edges
+    assert violations(edges)
+
+
+def violations(edges) -> list[str]:
+    bad = []
+    for file, line, src, target in edges:
+        a, b = package_of(src), package_of(target)
+        if a is None or b is None or a[1] == b[1]:
+            continue
+        if b[0] >= a[0]:
+            bad.append(f"{file}:{line}: {src} (layer {a[0]}, {a[1]}) imports {target} (layer {b[0]}, {b[1]})")
+    return bad
+
+
+def test_imports_only_go_down():
+    bad = violations(kit_edges())
+    assert not bad, "imports that go up a layer or sideways:\n" + "\n".join(bad)
+
+
+def _module_graph() -> dict[str, set[str]]:
+    modules = {module_name(p) for p in shipped_files()}
+    graph: dict[str, set[str]] = {m: set() for m in modules}
+    for _, _, src, target in kit_edges():
+        # "from pkg import name" where name is not a module resolves to the package itself.
+        while target and target not in modules:
+            target = target.rpartition(".")[0]
+        if target and target != src:
+            graph[src].add(target)
+    return graph
+
+
+def test_no_circle_between_modules():
+    graph = _module_graph()
+    state: dict[str, int] = {}
+    stack: list[str] = []
+    circles: list[str] = []
+
+    def visit(m: str) -> None:
+        state[m] = 1
+        stack.append(m)
+        for n in sorted(graph[m]):
+            if state.get(n) == 1:
+                circles.append(" -> ".join(stack[stack.index(n):] + [n]))
+            elif n not in state:
+                visit(n)
+        stack.pop()
+        state[m] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m)
+    assert not circles, "import circles:\n" + "\n".join(circles)
+
+
+@pytest.mark.parametrize("module, layer", [("core.geometry", 0), ("starter.checks.fundamental", 4),
+                                           ("starter.epipolar", 2), ("autograder.hidden.x", 7)])
+def test_package_of(module, layer):
+    assert package_of(module)[0] == layer
