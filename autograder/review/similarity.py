@@ -1,0 +1,222 @@
+"""Rank the pairs of submissions whose code of one homework function looks alike.
+
+For every function of the manifest, each submission's definition is fingerprinted
+(``fingerprint``), the handout's code (the stubs of the student notebooks and the starter
+package) is subtracted, and every pair is compared at once with one matrix product:
+
+- a fingerprint shared by many submissions says little (the textbook lines everyone writes, like
+  ``U, S, Vt = np.linalg.svd(F)``), so it weighs ``1 - (df - 2) / (N - 2)`` where ``df`` is the
+  number of submissions (of N) that contain it: 1 when only the pair has it, 0 when all do;
+- ``shared`` is the weight of the fingerprints the two have in common, ``jaccard`` that over the
+  weight of their union, ``containment`` that over the smaller of the two (one copy padded with
+  extra lines still scores high);
+- ``score = max(jaccard, containment - 0.15) * min(1, shared / MIN_SHARED)``: alike *and*
+  enough code to say so.  Two one-line ``return K2.T @ F @ K1`` are identical yet say nothing.
+
+Pairs at or above ``FLAG`` are listed as "look at these".  The score ranks; the staff decide.
+"""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from core.paths import KIT_ROOT, NOTEBOOKS_DIR
+
+from .fingerprint import Fingerprints, fingerprint_code, fingerprint_function
+from .reader import FUNCTIONS, FunctionSource, SubmissionCode, stub_sources
+
+__all__ = ["FLAG", "MIN_SHARED", "FunctionComparison", "Pair", "compare", "given_hashes"]
+
+FLAG = 0.5
+MIN_SHARED = 12.0
+_CONTAINMENT_DISCOUNT = 0.15
+
+
+@dataclass(frozen=True)
+class Pair:
+    """Two submissions' code of one function, compared.
+
+    a, b: submission names (a < b); score: the ranking figure in [0, 1]; jaccard, containment:
+    shares of alike code (see the module's docstring); shared: weight of the common fingerprints;
+    flagged: score >= FLAG; rank: 1 for the most alike pair of the function.
+    """
+
+    function: str
+    a: str
+    b: str
+    score: float
+    jaccard: float
+    containment: float
+    shared: float
+    flagged: bool
+    rank: int
+
+    def as_dict(self) -> dict:
+        return {"function": self.function, "rank": self.rank, "a": self.a, "b": self.b,
+                "score": round(self.score, 4), "jaccard": round(self.jaccard, 4),
+                "containment": round(self.containment, 4), "shared": round(self.shared, 2),
+                "flagged": self.flagged}
+
+
+@dataclass
+class FunctionComparison:
+    """Every pair of the submissions that define ``function``.
+
+    names: the submissions compared (n); fingerprints: their Fingerprints, the handout's code
+    removed; score, jaccard, containment, shared: (n, n) symmetric float arrays;
+    weights: plain hash -> weight; skipped: submissions without this function (or with nothing
+    of their own in it).
+    """
+
+    function: str
+    names: list
+    fingerprints: list
+    score: np.ndarray
+    jaccard: np.ndarray
+    containment: np.ndarray
+    shared: np.ndarray
+    weights: dict
+    skipped: list = field(default_factory=list)
+
+    def ranked(self, limit: int | None = None, *, flagged_too: bool = True) -> list[Pair]:
+        """Pairs best first (ties by names); at most ``limit`` of them, plus every flagged pair
+        beyond that when ``flagged_too``."""
+        n = len(self.names)
+        if n < 2:
+            return []
+        iu, ju = np.triu_indices(n, 1)
+        s = self.score[iu, ju]
+        order = np.lexsort((ju, iu, -s))
+        keep = len(order) if limit is None else max(limit, int(np.sum(s >= FLAG)) if flagged_too else 0)
+        out = []
+        for r, k in enumerate(order[:keep], start=1):
+            i, j = int(iu[k]), int(ju[k])
+            a, b = sorted((self.names[i], self.names[j]))
+            out.append(Pair(self.function, a, b, float(self.score[i, j]), float(self.jaccard[i, j]),
+                            float(self.containment[i, j]), float(self.shared[i, j]),
+                            bool(self.score[i, j] >= FLAG), r))
+        return out
+
+    def pair_score(self, a: str, b: str) -> float:
+        i, j = self.names.index(a), self.names.index(b)
+        return float(self.score[i, j])
+
+    def matching_lines(self, a: str, b: str) -> tuple[set[int], set[int]]:
+        """Lines (1-based in each function's source) of a and of b that carry a common fingerprint
+        of positive weight."""
+        fa = self.fingerprints[self.names.index(a)]
+        fb = self.fingerprints[self.names.index(b)]
+        common = {h for h, _ in fa.hashes & fb.hashes if self.weights.get(h, 0.0) > 0}
+        return _lines(fa, common), _lines(fb, common)
+
+
+def _lines(fp: Fingerprints, hashes) -> set[int]:
+    out = set()
+    for h in hashes:
+        for first, last in fp.lines.get(h, ()):
+            out.update(range(first, last + 1))
+    return out
+
+
+def given_hashes(notebooks_dir: str | Path | None = NOTEBOOKS_DIR,
+                 extra_dirs: Sequence[str | Path] = (KIT_ROOT / "starter",)) -> set[int]:
+    """Plain hashes of the handout's code: the student notebooks' cells (the stubs) and every
+    .py file under ``extra_dirs`` (the starter package students import and may paste from)."""
+    given: set[int] = set()
+    sources = stub_sources(notebooks_dir) if notebooks_dir else []
+    for d in extra_dirs:
+        for p in sorted(Path(d).rglob("*.py")):
+            sources.append(FunctionSource("<file>", p.read_text(errors="replace"), str(p), 1))
+    for fs in sources:
+        try:
+            tree = ast.parse(fs.source)
+        except SyntaxError:
+            continue
+        given.update(h for h, _ in fingerprint_code(tree).hashes)
+        # a function of the handout also counts as written on its own (its names bound locally)
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                given.update(h for h, _ in fingerprint_code(node).hashes)
+    return given
+
+
+def _weight(df: np.ndarray, n: int) -> np.ndarray:
+    if n <= 2:
+        return np.ones(df.shape)
+    return np.clip(1.0 - (df - 2.0) / (n - 2.0), 0.0, 1.0)
+
+
+def compare_function(function: str, items: Iterable[tuple[str, Fingerprints]]) -> FunctionComparison:
+    """Compare every pair of ``items`` (submission name, fingerprints without the handout's code)."""
+    items = list(items)
+    names = [name for name, _ in items]
+    if len(set(names)) != len(names):
+        raise ValueError(f"items: expected distinct submission names, got {names}")
+    fps = [fp for _, fp in items]
+    n = len(items)
+    df: dict[int, int] = {}
+    for fp in fps:
+        for h in {h for h, _ in fp.hashes}:
+            df[h] = df.get(h, 0) + 1
+    weights = {h: float(w) for h, w in zip(df, _weight(np.array(list(df.values()), float), n))}
+    sizes = np.array([sum(weights[h] for h, _ in fp.hashes) for fp in fps])
+    # columns: (hash, repeat) keys found in two submissions or more
+    cols: dict[tuple, int] = {}
+    counts: dict[tuple, int] = {}
+    for fp in fps:
+        for key in fp.hashes:
+            counts[key] = counts.get(key, 0) + 1
+    for key, c in counts.items():
+        if c >= 2 and weights[key[0]] > 0:
+            cols[key] = len(cols)
+    X = np.zeros((n, len(cols)), dtype=np.float32)
+    for i, fp in enumerate(fps):
+        idx = [cols[key] for key in fp.hashes if key in cols]
+        X[i, idx] = 1.0
+    w = np.array([weights[key[0]] for key in cols], dtype=np.float32)
+    shared = (X * w) @ X.T if len(cols) else np.zeros((n, n), np.float32)
+    shared = shared.astype(float)
+    np.fill_diagonal(shared, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        union = sizes[:, None] + sizes[None, :] - shared
+        jac = np.where(union > 0, shared / union, 0.0)
+        small = np.minimum(sizes[:, None], sizes[None, :])
+        con = np.where(small > 0, shared / small, 0.0)
+    score = np.maximum(jac, con - _CONTAINMENT_DISCOUNT) * np.minimum(1.0, shared / MIN_SHARED)
+    score = np.clip(score, 0.0, 1.0)
+    np.fill_diagonal(score, 0.0)
+    return FunctionComparison(function, names, fps, score, jac, con, shared, weights)
+
+
+def compare(submissions: Sequence[SubmissionCode], given: set[int] | None = None,
+            functions: Sequence[str] = FUNCTIONS) -> dict[str, FunctionComparison]:
+    """One FunctionComparison per function of ``functions``; ``given`` defaults to ``given_hashes()``."""
+    if given is None:
+        given = given_hashes()
+    unknown = [f for f in functions if f not in FUNCTIONS]
+    if unknown:
+        raise ValueError(f"functions: expected names among {list(FUNCTIONS)}, got {unknown}")
+    out = {}
+    for function in functions:
+        items, skipped = [], []
+        for sub in submissions:
+            fs = sub.functions.get(function)
+            fp = None
+            if fs is not None:
+                try:
+                    fp = fingerprint_function(fs.source).without(given)
+                except (SyntaxError, ValueError):
+                    fp = None
+            if fp is None or not fp.hashes:
+                skipped.append(sub.name)
+            else:
+                items.append((sub.name, fp))
+        comp = compare_function(function, items)
+        comp.skipped = skipped
+        out[function] = comp
+    return out
