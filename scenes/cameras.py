@@ -1,4 +1,4 @@
-"""Pinhole cameras for the synthetic scenes.
+"""Camera helpers for building the synthetic scenes (intrinsics, look_at, rotation_about).
 
 Conventions (the same as the homework's):
 - M = [R | t] (3x4) maps world coordinates to camera coordinates: X_cam = R @ X + t.
@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.geometry import camera_center, depths, project
+# project, depths and camera_center live in core.geometry; they are re-exported here because the
+# notebooks and tests import them from scenes.cameras.
+from core.geometry import camera_center, depths, project, skew
 
 __all__ = ["intrinsics", "look_at", "projection", "project", "depths", "camera_center", "rotation_about"]
 
@@ -49,5 +51,5 @@ def rotation_about(axis, angle: float) -> np.ndarray:
     """Rotation matrix (3x3) of ``angle`` radians about the unit vector ``axis`` (3,)."""
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    K = skew(a)
     return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K

@@ -36,9 +36,10 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from scenes.cameras import camera_center, depths, intrinsics, look_at, project, projection, rotation_about
-from scenes.painter import Face, Layer, Quads, face_normal, orient_outward, render
+from core.geometry import camera_center, depths, project
 from core.skeleton import CAR_KEYPOINTS
+from scenes.cameras import intrinsics, look_at, projection, rotation_about
+from scenes.painter import Face, Layer, Quads, face_normal, orient_outward, render
 
 __all__ = [
     "CarModel",

@@ -20,6 +20,7 @@ from typing import Sequence
 import numpy as np
 from PIL import Image, ImageDraw
 
+from core.geometry import IDENTITY_POSE, camera_center, project
 from core.validate import as_matrix
 
 __all__ = ["Face", "Quads", "Layer", "face_normal", "orient_outward", "render"]
@@ -204,12 +205,13 @@ def render(layers: Sequence[Layer], K, M, width: int, height: int, *,
     sun = np.asarray(sun, float)
     sun = sun / np.linalg.norm(sun)
     R, t = M[:, :3], M[:, 3]
-    centre = -R.T @ t
+    centre = camera_center(M)
     # Scaling K by s draws pixel (x, y) of the output at ((x + 0.5) s - 0.5, ...) of the large
     # image, which is what a box filter of size s maps back to (x, y).
     S = np.diag([s, s, 1.0])
     S[:2, 2] = (s - 1) / 2.0
     Ks = S @ K
+    Cs = Ks @ IDENTITY_POSE  # camera coordinates (after clipping) -> pixels of the large image
 
     img = _sky(width * s, height * s, sky_top, sky_horizon)
     draw = ImageDraw.Draw(img)
@@ -221,8 +223,7 @@ def render(layers: Sequence[Layer], K, M, width: int, height: int, *,
         cam = _clip_near(cam, near)
         if len(cam) < 3:
             return False
-        h = cam @ Ks.T
-        uv = h[:, :2] / h[:, 2:3]
+        uv = project(Cs, cam)
         color = _shaded(face.color, face.normal, sun, ambient) if face.shade else tuple(face.color)
         draw.polygon([tuple(p) for p in uv.tolist()], fill=color)
         for decal in face.decals:
@@ -235,8 +236,7 @@ def render(layers: Sequence[Layer], K, M, width: int, height: int, *,
     def paint_quads(quads: Quads, normal: np.ndarray) -> None:
         cam = quads.vertices @ R.T + t
         keep = np.all(cam[..., 2] >= near, axis=1)
-        h = cam[keep] @ Ks.T
-        uv = h[..., :2] / h[..., 2:3]
+        uv = project(Cs, cam[keep]).reshape(-1, 4, 2)
         color = _shaded(quads.color, normal, sun, ambient) if quads.shade else tuple(quads.color)
         for quad in uv.tolist():
             draw.polygon([tuple(p) for p in quad], fill=color)

@@ -33,9 +33,8 @@ import numpy as np
 import scipy.fft
 from scipy import ndimage
 
+from core.geometry import camera_center, depths, project
 from core.validate import as_matrix, as_points, as_positive_scalar
-
-from .cameras import camera_center
 
 __all__ = [
     "ConvexPolyhedron",
@@ -353,10 +352,9 @@ def _pixel_rays(K, M, xy):
 def _screen_rect(prim, K, M):
     """Image bounding rectangle (x0, x1, y0, y1) of a primitive, or None when it straddles
     the camera plane (then every pixel has to be tested)."""
-    cam = prim.vertices @ M[:, :3].T + M[:, 3]
-    if np.any(cam[:, 2] <= 1e-9):
+    if np.any(depths(M, prim.vertices) <= 1e-9):
         return None
-    xy = cam[:, :2] / cam[:, 2:] @ K[:2, :2].T + K[:2, 2]
+    xy = project(K @ M, prim.vertices)
     (x0, y0), (x1, y1) = xy.min(axis=0) - 1, xy.max(axis=0) + 1
     return x0, x1, y0, y1
 

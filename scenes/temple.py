@@ -33,16 +33,19 @@ from PIL import Image
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from core.validate import as_positive_scalar
-
-from .cameras import (
+from core.geometry import (
+    IDENTITY_POSE,
+    CameraPair,
     camera_center,
     depths,
-    intrinsics,
+    epipolar_distances,
+    essential_from_pose,
+    fundamental_from_pose,
     project,
-    projection,
-    rotation_about,
 )
+from core.validate import as_positive_scalar
+
+from .cameras import intrinsics, projection, rotation_about
 from .render import (
     Cylinder,
     SolidTexture,
@@ -55,7 +58,7 @@ from .render import (
     wedge,
 )
 
-__all__ = ["TempleScene", "make_temple_scene", "skew", "temple_model", "write_temple"]
+__all__ = ["TempleScene", "make_temple_scene", "temple_model", "write_temple"]
 
 # The official pair's intrinsics, as fractions of a 640 x 480 image.
 _REF_WIDTH, _REF_HEIGHT = 640, 480
@@ -64,12 +67,6 @@ _FY_OVER_FX = 1525.9 / 1520.4
 
 # Warm limestone, linear RGB.
 _STONE = np.array([0.97, 0.745, 0.52])
-
-
-def skew(v) -> np.ndarray:
-    """The 3x3 matrix [v]_x with [v]_x @ w == cross(v, w) for v (3,)."""
-    x, y, z = np.asarray(v, float).reshape(3)
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,7 +118,8 @@ class TempleScene:
         The seed the scene was made from.
 
     All arrays are read-only.  Derived: ``width``, ``height``, ``M`` (= max(width, height),
-    the homework's scale), ``C1``, ``C2``, ``R``, ``t``, ``E_true``, ``F_true``.
+    the homework's scale), ``C1``, ``C2``, ``R``, ``t``, ``E_true``, ``F_true`` (from core.geometry)
+    and ``pair`` (a core.geometry.CameraPair of the cameras and ``X``).
     """
 
     im1: np.ndarray
@@ -185,15 +183,19 @@ class TempleScene:
         return self.M2[:, 3]
 
     @property
+    def pair(self) -> CameraPair:
+        """The two cameras and the true points ``X`` of ``some_corresp`` as a core.geometry.CameraPair."""
+        return CameraPair(self.K1, self.K2, self.M2, self.X)
+
+    @property
     def E_true(self) -> np.ndarray:
         """Essential matrix [t]_x R (3x3), at the scale of the true t: x2n^T E x1n = 0."""
-        return skew(self.t) @ self.R
+        return essential_from_pose(self.M2)
 
     @property
     def F_true(self) -> np.ndarray:
         """Fundamental matrix K2^-T E K1^-1 (3x3), scaled to unit Frobenius norm."""
-        F = np.linalg.inv(self.K2).T @ self.E_true @ np.linalg.inv(self.K1)
-        return F / np.linalg.norm(F)
+        return fundamental_from_pose(self.K1, self.K2, self.M2)
 
     @property
     def M(self) -> int:
@@ -341,12 +343,6 @@ def _facing(normal: np.ndarray, X: np.ndarray, centre: np.ndarray) -> np.ndarray
     return np.einsum("ij,ij->i", normal, v) / np.linalg.norm(v, axis=1)
 
 
-def _epipolar_distance(F: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
-    """Distance (N,) in pixels of p2 (N, 2) from the epipolar line F @ p1 of p1 (N, 2)."""
-    lines = np.hstack([p1, np.ones((len(p1), 1))]) @ F.T
-    return np.abs(np.sum(lines[:, :2] * p2, axis=1) + lines[:, 2]) / np.linalg.norm(lines[:, :2], axis=1)
-
-
 def _to_uint16(xy: np.ndarray) -> np.ndarray:
     return np.rint(xy).astype(np.uint16)
 
@@ -445,7 +441,7 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
     # Independent streams, so that asking for more points leaves the images unchanged.
     geo_rng, look_rng, img_rng, pts_rng = np.random.default_rng(seed).spawn(4)
     K = intrinsics(f, _PP_FRACTION[0] * width, _PP_FRACTION[1] * height, f * _FY_OVER_FX)
-    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+    M1 = IDENTITY_POSE.copy()
     R_obj, t_obj, M2 = _poses(geo_rng, jitter, baseline_deg, _DISTANCE)
     prims = [p.transformed(R_obj, t_obj) for p in temple_model()]
 
@@ -499,11 +495,6 @@ def _surface_points(K, M1, M2, prims, xy1):
     return X, x2, ok
 
 
-def _fundamental(K, M2) -> np.ndarray:
-    F = np.linalg.inv(K).T @ skew(M2[:, 3]) @ M2[:, :3] @ np.linalg.inv(K)
-    return F / np.linalg.norm(F)
-
-
 def _correspondences(rng, n_corresp, n_outliers, noise_px, epipolar_fraction, *, K, M1, M2,
                      prims, g1, g2, width, height):
     """The clean pairs and the outliers (dicts of arrays), see make_temple_scene."""
@@ -536,7 +527,7 @@ def _correspondences(rng, n_corresp, n_outliers, noise_px, epipolar_fraction, *,
     if len(out_idx) < n_outliers:
         raise ValueError(f"n_outliers: only {len(out_idx)} usable temple points left for the "
                          f"{n_outliers} asked; use fewer points or a larger image")
-    F = _fundamental(K, M2)
+    F = fundamental_from_pose(K, K, M2)
     full2 = (g2.coverage >= 1) & (g2.prim >= 0)
     full2[:_MARGIN] = full2[-_MARGIN:] = False
     full2[:, :_MARGIN] = full2[:, -_MARGIN:] = False
@@ -585,7 +576,7 @@ def _wrong_match(rng, F, p1, x2_true, on2):
     from the true match."""
     for _ in range(200):
         q = on2[rng.integers(len(on2))]
-        if (_epipolar_distance(F, p1[None], q[None])[0] >= 6.0
+        if (epipolar_distances(F, p1[None], q[None])[0] >= 6.0
                 and np.linalg.norm(q - x2_true) >= 6.0):
             return q
     raise ValueError("n_outliers: could not place a wrong match away from the epipolar line")

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from scenes.cameras import camera_center
+from core.geometry import camera_center, depths, project
+from core.skeleton import CAR_KEYPOINTS
 from scenes.car import (CONFIDENCE_LEVELS, car_keypoints, car_rotation, confidence_sigma, make_car_scene,
                         official_arrays, render_view, write_car)
-from core.skeleton import CAR_KEYPOINTS
 
 OFFICIAL_NAMES = ["pts1", "pts2", "pts3", "M1", "M2", "M3", "K1", "K2", "K3"]
 SEEDS = range(6)
@@ -103,9 +103,8 @@ def test_true_keypoints_project_inside_the_images_in_front_of_the_cameras(scenes
         for t in range(s.n_times):
             for c in range(3):
                 M = s.M[t, c]
-                assert np.all(s.P_true[t] @ M[2, :3] + M[2, 3] > 1.0)
-                h = s.P_true[t] @ s.C[t, c][:, :3].T + s.C[t, c][:, 3]
-                np.testing.assert_allclose(h[:, :2] / h[:, 2:], s.uv_true[t, c], atol=1e-8)
+                assert np.all(depths(M, s.P_true[t]) > 1.0)
+                np.testing.assert_allclose(project(s.C[t, c], s.P_true[t]), s.uv_true[t, c], atol=1e-8)
         uv = s.uv_true
         assert uv[..., 0].min() >= 0 and uv[..., 0].max() <= s.width - 1
         assert uv[..., 1].min() >= 0 and uv[..., 1].max() <= s.height - 1

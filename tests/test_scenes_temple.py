@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from scenes.cameras import depths, intrinsics, project, rotation_about
+from core.geometry import IDENTITY_POSE, depths, epipolar_distances, homogeneous, project
+from scenes.cameras import intrinsics, rotation_about
 from scenes.render import (
     Cylinder,
     SolidTexture,
@@ -26,7 +27,7 @@ from scenes.render import (
     visible_from,
     wedge,
 )
-from scenes.temple import TempleScene, make_temple_scene, skew, write_temple
+from scenes.temple import TempleScene, make_temple_scene, write_temple
 
 OFFICIAL_LAYOUT = {
     "intrinsics.npz": {"K1": (np.float64, (3, 3)), "K2": (np.float64, (3, 3))},
@@ -40,14 +41,6 @@ SMALL = dict(width=320, height=240)
 
 
 # ----------------------------------------------------------------------------- helpers
-
-def epipolar_distance(F, p1, p2):
-    """Distance (N,) in pixels of p2 (N, 2) from the line F @ p1 of p1 (N, 2)."""
-    p1 = np.asarray(p1, float)
-    p2 = np.asarray(p2, float)
-    lines = np.hstack([p1, np.ones((len(p1), 1))]) @ F.T
-    return np.abs(np.sum(lines[:, :2] * p2, axis=1) + lines[:, 2]) / np.linalg.norm(lines[:, :2], axis=1)
-
 
 def ssd_along_line(im1, im2, F, x1, y1, half=7, search=40):
     """Plain SSD matching of a (2 half + 1)^2 RGB window: for each (x1, y1), the candidates
@@ -178,10 +171,12 @@ def test_bad_arguments_raise_value_errors_naming_them(kwargs, name):
 # ----------------------------------------------------------------------------- geometry
 
 def test_cameras_and_true_matrices_are_consistent(small):
-    assert np.array_equal(small.M1, np.hstack([np.eye(3), np.zeros((3, 1))]))
+    assert np.array_equal(small.M1, IDENTITY_POSE)
     R, t = small.R, small.t
     assert np.allclose(R @ R.T, np.eye(3), atol=1e-12) and np.isclose(np.linalg.det(R), 1.0)
-    assert np.allclose(small.E_true, skew(t) @ R)
+    # E = [t]x R, checked through np.cross rather than core.geometry.skew, which E_true uses.
+    w = np.random.default_rng(0).normal(size=(3, 5))
+    assert np.allclose(small.E_true @ w, np.cross(t, (R @ w).T).T)
     sv = np.linalg.svd(small.E_true, compute_uv=False)
     assert np.isclose(sv[0], sv[1]) and sv[2] < 1e-12 * sv[0]
     F = small.F_true
@@ -189,12 +184,16 @@ def test_cameras_and_true_matrices_are_consistent(small):
     F_from_E = np.linalg.inv(small.K2).T @ small.E_true @ np.linalg.inv(small.K1)
     assert np.allclose(F, F_from_E / np.linalg.norm(F_from_E))
     assert np.allclose(small.C2, small.K2 @ small.M2)
+    pair = small.pair
+    assert np.array_equal(pair.F, F) and np.array_equal(pair.E, small.E_true)
+    assert np.allclose(pair.C1, small.C1) and np.allclose(pair.C2, small.C2)
+    assert np.allclose(pair.pts1, small.pts1_true, atol=1e-6) and np.allclose(pair.pts2, small.pts2_true, atol=1e-6)
 
 
 def test_true_points_project_exactly_and_satisfy_the_true_F(small):
     assert np.allclose(project(small.C1, small.X), small.pts1_true, atol=1e-6)
     assert np.allclose(project(small.C2, small.X), small.pts2_true, atol=1e-6)
-    assert epipolar_distance(small.F_true, small.pts1_true, small.pts2_true).max() < 1e-6
+    assert epipolar_distances(small.F_true, small.pts1_true, small.pts2_true).max() < 1e-6
     x2 = np.stack([small.x1[:, 0], small.y1[:, 0]], axis=1).astype(float)
     assert np.allclose(project(small.C1, small.X_coords), x2, atol=1e-6)
     assert np.allclose(project(small.C2, small.X_coords), small.x2_true, atol=1e-6)
@@ -242,7 +241,7 @@ def test_temple_coords_are_spread_over_the_temple_and_mostly_visible(small):
 @pytest.mark.parametrize("seed", [2, 7, 11])
 def test_unseen_variants_keep_every_guarantee(seed):
     scene = make_temple_scene(seed, width=256, height=192, n_corresp=60, n_outliers=20, n_coords=100)
-    assert epipolar_distance(scene.F_true, scene.pts1_true, scene.pts2_true).max() < 1e-6
+    assert epipolar_distances(scene.F_true, scene.pts1_true, scene.pts2_true).max() < 1e-6
     assert np.all(visible_from(scene.primitives, scene.M2, scene.X))
     out = ~scene.inlier_mask
     assert out.sum() == 20
@@ -265,20 +264,20 @@ def test_noisy_set_is_the_clean_set_plus_hard_outliers_shuffled(small):
     wrong = small.pts2_noisy[~inl].astype(float)
     assert np.linalg.norm(wrong - small.pts2_noisy_true[~inl], axis=1).min() >= 6.0
     # ... yet half of them pass an epipolar test at 1 px, and the rest fail it clearly.
-    d = epipolar_distance(small.F_true, small.pts1_noisy[~inl], wrong)
+    d = epipolar_distances(small.F_true, small.pts1_noisy[~inl], wrong)
     kind = small.outlier_kind[~inl]
     assert (kind == "epipolar").sum() == 15 and np.all(kind[kind != "epipolar"] == "random")
     assert np.all(d[kind == "epipolar"] <= 1.0)
     assert np.all(d[kind == "random"] >= 6.0)
     # The clean pairs do pass it (noise and rounding only).
-    assert np.mean(epipolar_distance(small.F_true, small.pts1, small.pts2) <= 1.5) > 0.9
+    assert np.mean(epipolar_distances(small.F_true, small.pts1, small.pts2) <= 1.5) > 0.9
 
 
 def test_outlier_mix_follows_the_arguments():
     scene = make_temple_scene(6, epipolar_outliers=0.0, **TINY)
     out = ~scene.inlier_mask
     assert np.all(scene.outlier_kind[out] == "random")
-    assert np.all(epipolar_distance(scene.F_true, scene.pts1_noisy[out], scene.pts2_noisy[out]) >= 6)
+    assert np.all(epipolar_distances(scene.F_true, scene.pts1_noisy[out], scene.pts2_noisy[out]) >= 6)
     clean = make_temple_scene(6, n_outliers=0, **{k: v for k, v in TINY.items() if k != "n_outliers"})
     assert clean.inlier_mask.all()
     assert {tuple(r) for r in np.hstack([clean.pts1_noisy, clean.pts2_noisy]).tolist()} == \
@@ -335,7 +334,7 @@ def test_ray_caster_hits_primitives_where_geometry_says():
 
 def test_visibility_sees_occlusion():
     near, far = box([0, 0, 3.0], [1, 1, 0.5]), box([0, 0, 6.0], [3, 3, 0.5])
-    M = np.hstack([np.eye(3), np.zeros((3, 1))])
+    M = IDENTITY_POSE
     X = np.array([[0, 0, 2.5],      # front face of the near box: seen
                   [0, 0, 5.5],      # front face of the far box, behind the near box: hidden
                   [0, 2.8, 5.5],    # front face of the far box, beside the near box: seen
@@ -347,7 +346,7 @@ def test_visibility_sees_occlusion():
 
 def test_render_matches_cast_rays_and_antialiases_edges():
     K = intrinsics(100.0, 31.5, 23.5)
-    M = np.hstack([np.eye(3), np.zeros((3, 1))])
+    M = IDENTITY_POSE
     prims = [box([0.1, 0.05, 5.0], [1.0, 0.6, 0.5], R=rotation_about([0, 0, 1], 0.3))]
     g = render_gbuffer(prims, K, M, 64, 48, supersample=2)
     ys, xs = np.nonzero(g.prim >= 0)
@@ -372,7 +371,7 @@ def test_default_scene_has_official_like_disparities(default):
     assert 1 < std[0] < 5 and 6 < std[1] < 20
     assert lo[1] >= -60 and hi[1] <= 40 and lo[0] >= -15 and hi[0] <= 15
     # Epipolar lines within a few degrees of vertical, everywhere the points are.
-    lines = np.hstack([default.pts1_true, np.ones((110, 1))]) @ default.F_true.T
+    lines = homogeneous(default.pts1_true) @ default.F_true.T
     assert np.degrees(np.arctan2(np.abs(lines[:, 1]), np.abs(lines[:, 0]))).max() < 5
 
 
