@@ -9,14 +9,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
+from core import geometry
 from core.validate import as_matrix, as_points, same_length
 
-__all__ = ["homogeneous", "enforce_rank2", "epipolar_distances", "symmetric_epipolar_cost", "refineF"]
-
-
-def homogeneous(pts: np.ndarray) -> np.ndarray:
-    """(N, 2) pixels -> (N, 3) homogeneous points with a last coordinate of 1."""
-    return np.hstack([pts, np.ones((len(pts), 1))])
+__all__ = ["enforce_rank2", "epipolar_distances", "symmetric_epipolar_cost", "refineF"]
 
 
 def enforce_rank2(F: np.ndarray) -> np.ndarray:
@@ -33,30 +29,28 @@ def epipolar_distances(F, pts1, pts2) -> np.ndarray:
     ----------
     F : (3, 3) fundamental matrix, x2^T F x1 = 0.
     pts1, pts2 : (N, 2) pixels (x, y) of matched points in image 1 and image 2.
+
+    Returns
+    -------
+    (N,) distances in pixels; inf where the line F x1 is undefined (F x1 has no direction).
+
+    The arguments are checked here (ValueError naming the bad one); the distance itself is
+    core.geometry.epipolar_distances.
     """
     F = as_matrix(F, "F", (3, 3))
     p1 = as_points(pts1, "pts1")
     p2 = as_points(pts2, "pts2")
     same_length(pts1=p1, pts2=p2)
-    lines = homogeneous(p1) @ F.T
-    norm = np.hypot(lines[:, 0], lines[:, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d = np.abs(np.sum(lines * homogeneous(p2), axis=1)) / norm
-    return np.where(norm > 0, d, np.inf)
+    return geometry.epipolar_distances(F, p1, p2)
 
 
-def symmetric_epipolar_cost(F: np.ndarray, h1: np.ndarray, h2: np.ndarray) -> float:
-    """Sum over points of the squared distances of x2 to F x1 plus of x1 to F^T x2.
+def symmetric_epipolar_cost(F: np.ndarray, pts1: np.ndarray, pts2: np.ndarray) -> float:
+    """Sum over points of the squared distances of x2 to F x1 plus of x1 to F^T x2 (pixels^2).
 
-    h1, h2: (N, 3) homogeneous points.  This is the geometric cost ``refineF`` minimises.
+    F (3, 3); pts1, pts2 (N, 2) float points, not checked (this runs inside the optimiser).
+    This is the geometric cost ``refineF`` minimises; inf when a line is undefined.
     """
-    l2 = h1 @ F.T
-    l1 = h2 @ F
-    r = np.sum(h2 * l2, axis=1) ** 2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cost = r * (1.0 / (l2[:, 0] ** 2 + l2[:, 1] ** 2) + 1.0 / (l1[:, 0] ** 2 + l1[:, 1] ** 2))
-    total = float(np.sum(cost))
-    return total if np.isfinite(total) else np.inf
+    return float(np.sum(geometry.symmetric_epipolar_distances(F, pts1, pts2) ** 2))
 
 
 def refineF(F, pts1, pts2) -> np.ndarray:
@@ -80,13 +74,12 @@ def refineF(F, pts1, pts2) -> np.ndarray:
     p1 = as_points(pts1, "pts1", min_count=8)
     p2 = as_points(pts2, "pts2", min_count=8)
     same_length(pts1=p1, pts2=p2)
-    h1, h2 = homogeneous(p1), homogeneous(p2)
     scale = np.linalg.norm(F)
     if scale == 0:
         raise ValueError("F: expected a non-zero matrix, got all zeros")
 
     def cost(f):
-        return symmetric_epipolar_cost(enforce_rank2(f.reshape(3, 3)), h1, h2)
+        return symmetric_epipolar_cost(enforce_rank2(f.reshape(3, 3)), p1, p2)
 
     # Powell needs no gradient, and the cost is flat along F's scale: that is harmless to it.
     res = scipy.optimize.minimize(cost, (F / scale).ravel(), method="Powell",

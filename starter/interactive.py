@@ -34,12 +34,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.geometry import epipolar_distances
 from core.validate import DegenerateInputError, as_finite_scalar, as_image, as_matrix, as_points, as_positive_scalar
 
 __all__ = [
     "epipolar_line",
     "epipolar_line_endpoints",
-    "distance_to_line",
     "pair_colors",
     "EpipolarPick",
     "EpipolarSession",
@@ -51,9 +51,6 @@ __all__ = [
 
 # --------------------------------------------------------------------------------------------
 # geometry
-
-
-
 
 def epipolar_line(F, x1, y1) -> np.ndarray:
     """The epipolar line in image 2 of pixel (x1, y1) of image 1.
@@ -88,12 +85,6 @@ def epipolar_line(F, x1, y1) -> np.ndarray:
             f"(x1, y1) = ({x[0]:g}, {x[1]:g}) is the epipole of image 1 (F x1 has a = b = 0): "
             f"it has no epipolar line")
     return line / norm
-
-
-def distance_to_line(line, x, y) -> float:
-    """Distance in pixels of (x, y) from a line ``(a, b, c)`` (any scale)."""
-    line = np.asarray(line, dtype=float).reshape(3)
-    return float(abs(line @ [x, y, 1.0]) / np.hypot(line[0], line[1]))
 
 
 def epipolar_line_endpoints(F, x1, y1, width, height):
@@ -293,7 +284,7 @@ class EpipolarSession:
                 raise ValueError(f"match_fn: expected it to return (x2, y2), two finite numbers, "
                                  f"got {result!r}")
             match = (float(m[0]), float(m[1]))
-            distance = distance_to_line(line, *match)
+            distance = float(epipolar_distances(self.F, [(xi, yi)], [match])[0])
             if distance > self.far_threshold:
                 warning = (f"the match ({match[0]:.1f}, {match[1]:.1f}) is {distance:.1f} px from "
                            f"the epipolar line (more than {self.far_threshold:g} px): "

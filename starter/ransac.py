@@ -11,7 +11,7 @@ from typing import Callable
 
 import numpy as np
 
-from .epipolar import homogeneous
+from core.geometry import epipolar_distances
 from core.validate import as_points, as_positive_scalar, same_length
 
 __all__ = ["ransac", "RansacResult", "adaptive_trials", "hartley_normalization", "eightpoint_hartley", "ransacF"]
@@ -160,14 +160,9 @@ def ransacF(pts1, pts2, M, eightpoint: Callable, nIters: int = 1000, tol: float 
             return None  # a degenerate sample (collinear points, say) is skipped, not fatal
         return F if F.shape == (3, 3) and np.all(np.isfinite(F)) and np.any(F) else None
 
-    h1, h2 = homogeneous(p1), homogeneous(p2)
-
     def residuals(F):
-        # epipolar_distances without its input checks: this runs once per trial.
-        lines = h1 @ F.T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            d = np.abs(np.einsum("ij,ij->i", lines, h2)) / np.hypot(lines[:, 0], lines[:, 1])
-        return np.nan_to_num(d, nan=np.inf)
+        # core.geometry's distance, without starter.epipolar's input checks: this runs once per trial.
+        return epipolar_distances(F, p1, p2)
 
     def fit_all(idx):
         try:

@@ -10,23 +10,19 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from core.geometry import epipolar_distances, skew
+from core.validate import DegenerateInputError
 from starter.interactive import (
     EpipolarApp,
     EpipolarSession,
     displayEpipolarF,
-    distance_to_line,
     epipolar_line,
     epipolar_line_endpoints,
     epipolarMatchGUI,
 )
-from core.validate import DegenerateInputError
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 W, H = 160, 120
-
-
-def skew(t):
-    return np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
 
 
 @pytest.fixture
@@ -73,6 +69,11 @@ def line_of(F, x1, y1):
     return np.asarray(F, float) @ [x1, y1, 1.0]
 
 
+def off_line(F, x1, y1, x, y):
+    """Distance in pixels of (x, y) in image 2 from the epipolar line of (x1, y1)."""
+    return epipolar_distances(F, [(x1, y1)], [(x, y)])[0]
+
+
 def image2_lines(fig):
     """The epipolar lines drawn in the right-hand axes: 2-point solid Line2D."""
     ax2 = fig.axes[1]
@@ -86,9 +87,8 @@ def test_endpoints_lie_on_the_line_and_on_the_border(F, rng):
         ends = epipolar_line_endpoints(F, x1, y1, W, H)
         if ends is None:
             continue
-        line = line_of(F, x1, y1)
         for x, y in ends:
-            assert distance_to_line(line, x, y) < 1e-9
+            assert off_line(F, x1, y1, x, y) < 1e-9
             assert -1e-9 <= x <= W - 1 + 1e-9 and -1e-9 <= y <= H - 1 + 1e-9
             on_border = min(abs(x), abs(x - (W - 1)), abs(y), abs(y - (H - 1)))
             assert on_border < 1e-9
@@ -154,14 +154,14 @@ def test_a_pick_gives_the_line_F_x1_and_calls_the_matcher_with_the_pixel(F, imag
     line = line_of(F, 37, 81)
     assert np.allclose(np.cross(pick.line, line), 0, atol=1e-9 * np.linalg.norm(line))
     for x, y in pick.endpoints:
-        assert distance_to_line(line, x, y) < 1e-9
+        assert off_line(F, 37, 81, x, y) < 1e-9
     np.testing.assert_allclose(pick.match, project_on_line(F, 37, 81))
     assert pick.distance < 1e-9 and pick.warning is None
 
     fig = session.figure()
     (drawn,) = image2_lines(fig)
     for x, y in drawn.get_xydata():
-        assert distance_to_line(line, x, y) < 1e-9
+        assert off_line(F, 37, 81, x, y) < 1e-9
     match_markers = [ln for ln in fig.axes[1].lines if ln.get_marker() == "o"]
     np.testing.assert_allclose(match_markers[0].get_xydata()[0], pick.match)
 
@@ -183,7 +183,7 @@ def test_static_form_with_five_points_draws_five_lines_in_five_colours(F, images
     assert len(lines) == 5
     for ln, (x1, y1) in zip(lines, pts):
         for x, y in ln.get_xydata():
-            assert distance_to_line(line_of(F, x1, y1), x, y) < 1e-9
+            assert off_line(F, x1, y1, x, y) < 1e-9
     assert len({ln.get_color() for ln in lines}) == 5
     # same colour for the point in image 1 and its line in image 2
     rings1 = [ln for ln in fig.axes[0].lines if ln.get_marker() == "o"]
@@ -266,7 +266,7 @@ def test_a_simulated_click_draws_the_line_and_match_in_the_widget(F, images):
     for shape, (x1, y1) in zip(fw.layout.shapes, [(70, 33), (12, 100)]):
         assert (shape.xref, shape.yref) == ("x2", "y2")
         for x, y in [(shape.x0, shape.y0), (shape.x1, shape.y1)]:
-            assert distance_to_line(line_of(F, x1, y1), x, y) < 1e-6
+            assert off_line(F, x1, y1, x, y) < 1e-6
     assert list(fw.data[2].x) == [70, 12] and list(fw.data[2].y) == [33, 100]
     np.testing.assert_allclose(np.column_stack([fw.data[3].x, fw.data[3].y]), session.matches())
     assert 'data-x1="12"' in app.status.value and 'data-y1="100"' in app.status.value
