@@ -1,0 +1,117 @@
+"""``python -m autograder.review similar|report ...``: the commands of the review package.
+
+similar SUBMISSIONS... --out DIR [--top N] [--keep-starter]
+    Look-alike code per homework function.  SUBMISSIONS are submission folders or zips, or class
+    folders holding them.  Writes DIR/similarity.csv, DIR/similarity.json, DIR/similarity.html.
+report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--per-question]
+    The class report of a graded folder (see autograder.review.report).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["main", "expand_submissions", "run_similar"]
+
+
+def expand_submissions(paths) -> list[Path]:
+    """The submissions among ``paths``: a folder holding only folders and zips is a class folder."""
+    out = []
+    for p in map(Path, paths):
+        if not p.exists():
+            raise ValueError(f"SUBMISSIONS: expected existing folders or zips, got {str(p)!r}")
+        if p.is_dir():
+            children = [c for c in sorted(p.iterdir()) if not c.name.startswith(".")]
+            has_code = any(c.is_file() and c.suffix in (".ipynb", ".py") for c in children)
+            subs = [c for c in children if c.is_dir() or c.suffix == ".zip"]
+            if subs and not has_code:
+                out.extend(subs)
+                continue
+        out.append(p)
+    return out
+
+
+def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = False) -> dict:
+    """Read, compare and write; return the written paths and the timings."""
+    from .html import similarity_page
+    from .reader import read_submission
+    from .similarity import compare, given_hashes
+
+    t0 = time.perf_counter()
+    subs = [read_submission(p) for p in expand_submissions(paths)]
+    names = [s.name for s in subs]
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    if dupes:
+        raise ValueError(f"SUBMISSIONS: expected distinct submission names, got {dupes} more than once")
+    t1 = time.perf_counter()
+    given = set() if keep_starter else given_hashes()
+    comps = compare(subs, given)
+    t2 = time.perf_counter()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    ranked = {f: c.ranked(top) for f, c in comps.items()}
+    with open(out / "similarity.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["function", "rank", "a", "b", "score", "jaccard", "containment", "shared", "look_at"])
+        for f, pairs in ranked.items():
+            for p in pairs:
+                d = p.as_dict()
+                w.writerow([f, d["rank"], d["a"], d["b"], d["score"], d["jaccard"], d["containment"], d["shared"],
+                            "look at these" if p.flagged else ""])
+    (out / "similarity.json").write_text(json.dumps({
+        "submissions": names,
+        "functions": {f: {"compared": comps[f].names, "without_own_code": comps[f].skipped,
+                          "pairs": [p.as_dict() for p in pairs]} for f, pairs in ranked.items()},
+        "notes": {s.name: list(s.notes) for s in subs if s.notes},
+    }, indent=1))
+    sources = {(s.name, f): fs for s in subs for f, fs in s.functions.items()}
+    (out / "similarity.html").write_text(similarity_page(comps, sources, top=min(top, 10)))
+    return {"csv": out / "similarity.csv", "json": out / "similarity.json", "html": out / "similarity.html",
+            "submissions": len(subs), "flagged": sum(p.flagged for ps in ranked.values() for p in ps),
+            "seconds_read": t1 - t0, "seconds_compare": t2 - t1, "seconds_total": time.perf_counter() - t0}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m autograder.review", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    s = sub.add_parser("similar", help="look-alike code per homework function")
+    s.add_argument("submissions", nargs="+")
+    s.add_argument("--out", required=True)
+    s.add_argument("--top", type=int, default=20, help="pairs listed per function (flagged pairs always are)")
+    s.add_argument("--keep-starter", action="store_true", help="do not subtract the handout's code")
+    r = sub.add_parser("report", help="the class report of a graded folder")
+    r.add_argument("graded")
+    r.add_argument("--out", required=True)
+    r.add_argument("--assignment", default="HW4 autograded", help="the Canvas assignment column's name")
+    r.add_argument("--roster", help="a Canvas gradebook export, to fill Student, ID, SIS User ID and Section")
+    r.add_argument("--per-question", action="store_true", help="one Canvas column per question too")
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "similar":
+            done = run_similar(args.submissions, args.out, top=args.top, keep_starter=args.keep_starter)
+            print(f"{done['submissions']} submissions compared in {done['seconds_total']:.1f} s; "
+                  f"{done['flagged']} pair(s) to look at.")
+            for k in ("csv", "json", "html"):
+                print(f"  {done[k]}")
+        else:
+            from .report import write_report
+
+            t0 = time.perf_counter()
+            written = write_report(args.graded, args.out, assignment=args.assignment, roster=args.roster,
+                                   per_question=args.per_question)
+            print(f"class report written in {time.perf_counter() - t0:.1f} s:")
+            for k in ("html", "tests", "mistakes", "grades", "canvas"):
+                print(f"  {written[k]}")
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

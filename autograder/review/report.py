@@ -1,0 +1,254 @@
+"""The class report of a graded folder: who passed what, the named mistakes, histograms, gradebooks.
+
+Reads ``<graded>/<student>/results.json`` (Gradescope's schema, as the grader writes it: tests
+with name "Q2 <check>", score, max_score, status, output) and writes into ``out``:
+
+- ``tests.csv``: per question and per test, how many results have it and the share that passed;
+- ``mistakes.csv``: each named mistake (feedback "Likely mistake: <name>." or "known mistake:
+  <name>.") with its question, count and the students who made it;
+- ``histogram_<question>.png`` (and ``histogram_total.png``): scores per question;
+- ``report.html``: all of the above on one page, the histograms embedded (works offline);
+- ``grades.csv``: ``student_id, total, Q2, ...`` (copied from the graded folder when it has one);
+- ``canvas.csv``: the columns of Canvas's gradebook import (Student, ID, SIS User ID, SIS Login
+  ID, Section, then one column per assignment, with a "Points Possible" row).  Without a roster
+  the student's folder name goes in SIS Login ID; with ``roster`` (a Canvas gradebook export)
+  the students are matched on SIS Login ID, SIS User ID or ID and their row is filled from it.
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+import json
+import re
+import shutil
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from core.manifest import QUESTIONS
+from core.text import points, write_atomic
+
+from .html import STYLE
+
+__all__ = ["ClassReport", "CANVAS_COLUMNS", "load_results", "build_report", "write_report", "MISTAKE_PATTERN"]
+
+CANVAS_COLUMNS = ("Student", "ID", "SIS User ID", "SIS Login ID", "Section")
+MISTAKE_PATTERN = re.compile(r"(?:known|likely) mistake:\s*([^.\n]+?)\s*(?:\.|$)", re.IGNORECASE | re.MULTILINE)
+_QUESTION_IDS = tuple(q.id for q in QUESTIONS if not q.by_hand)
+_EXTRA = {q.id for q in QUESTIONS if q.extra_credit}
+_POINTS = {q.id: q.points for q in QUESTIONS}
+
+
+@dataclass
+class ClassReport:
+    """What the class got.
+
+    students: names in order; scores: question -> {student: score}; totals: student -> total;
+    failures: student -> why grading failed; tests: (question, test name) -> [passed, seen];
+    mistakes: (question, mistake name) -> sorted students.
+    """
+
+    students: list = field(default_factory=list)
+    scores: dict = field(default_factory=lambda: defaultdict(dict))
+    totals: dict = field(default_factory=dict)
+    failures: dict = field(default_factory=dict)
+    tests: dict = field(default_factory=dict)
+    mistakes: dict = field(default_factory=lambda: defaultdict(set))
+
+    def pass_rate(self, question: str, test: str) -> float:
+        passed, seen = self.tests[(question, test)]
+        return passed / seen if seen else 0.0
+
+
+def load_results(graded: str | Path) -> dict[str, dict]:
+    """student -> parsed results.json of every ``graded/<student>/results.json`` (sorted by name)."""
+    graded = Path(graded)
+    if not graded.is_dir():
+        raise ValueError(f"graded: expected a folder of graded submissions, got {str(graded)!r}")
+    out = {}
+    for p in sorted(graded.glob("*/results.json")):
+        try:
+            out[p.parent.name] = json.loads(p.read_text())
+        except (OSError, ValueError):
+            out[p.parent.name] = {"score": 0, "tests": [], "extra_data": {"failure": "results.json unreadable"}}
+    return out
+
+
+def _split_name(name: str) -> tuple[str, str]:
+    qid, _, rest = name.partition(" ")
+    rest = rest.removesuffix(" (extra credit)")
+    return qid, rest
+
+
+def build_report(results: dict[str, dict]) -> ClassReport:
+    """Tally ``results`` (student -> results.json dict)."""
+    rep = ClassReport(students=list(results))
+    for student, data in results.items():
+        failure = (data.get("extra_data") or {}).get("failure")
+        if failure:
+            rep.failures[student] = failure
+        rep.totals[student] = float(data.get("score", 0.0))
+        per_q: dict[str, float] = defaultdict(float)
+        for t in data.get("tests", []):
+            qid, test = _split_name(str(t.get("name", "")))
+            score, max_score = float(t.get("score", 0)), float(t.get("max_score", 0))
+            per_q[qid] += score
+            passed = t.get("status") == "passed" if "status" in t else score >= max_score - 1e-9
+            tally = rep.tests.setdefault((qid, test), [0, 0])
+            tally[0] += int(passed)
+            tally[1] += 1
+            for m in MISTAKE_PATTERN.findall(str(t.get("output", ""))):
+                rep.mistakes[(qid, m.strip())].add(student)
+        for qid in _QUESTION_IDS:
+            rep.scores[qid][student] = 0.0 if failure else per_q.get(qid, 0.0)
+    return rep
+
+
+def _histogram_png(values, max_points: float, title: str) -> bytes:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(4.2, 2.6), dpi=90)
+    vals = np.asarray(list(values), float)
+    bins = np.linspace(0, max(max_points, float(vals.max()) if vals.size else 0, 1e-9), 11)
+    ax.hist(vals, bins=bins, color="#4a7ab5", edgecolor="white")
+    ax.set_title(title, fontsize=10)
+    ax.set_xlabel("points")
+    ax.set_ylabel("students")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _read_roster(path: Path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.DictReader(fh))
+    return [r for r in rows if (r.get("Student") or "").strip() and "Points Possible" not in (r.get("Student") or "")]
+
+
+def canvas_rows(rep: ClassReport, assignment: str, roster: list[dict] | None = None,
+                per_question: bool = False) -> list[list[str]]:
+    """Rows of Canvas's gradebook import: header, "Points Possible", one per student.
+
+    The assignment column carries the autograded total; ``per_question`` adds one column per
+    question (named "<assignment> <Q>"), which Canvas creates as new assignments on import.
+    """
+    base_max = sum(_POINTS[q] for q in _QUESTION_IDS if q not in _EXTRA)
+    cols = [assignment] + ([f"{assignment} {q}" for q in _QUESTION_IDS] if per_question else [])
+    maxes = [points(base_max)] + ([points(_POINTS[q]) for q in _QUESTION_IDS] if per_question else [])
+    rows = [list(CANVAS_COLUMNS) + cols, ["Points Possible", "", "", "", ""] + maxes]
+    index = {}
+    for r in roster or []:
+        for key in ("SIS Login ID", "SIS User ID", "ID"):
+            if (r.get(key) or "").strip():
+                index.setdefault(r[key].strip(), r)
+    for s in rep.students:
+        r = index.get(s)
+        ident = [r.get(c, "") for c in CANVAS_COLUMNS] if r else [s, "", "", s, ""]
+        vals = [points(rep.totals[s])] + ([points(rep.scores[q][s]) for q in _QUESTION_IDS] if per_question else [])
+        rows.append(ident + vals)
+    return rows
+
+
+def write_report(graded: str | Path, out: str | Path, *, assignment: str = "HW4 autograded",
+                 roster: str | Path | None = None, per_question: bool = False) -> dict:
+    """Write the report files (see the module's docstring) into ``out``; return their paths by kind."""
+    graded, out = Path(graded), Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rep = build_report(load_results(graded))
+    written = {}
+    # tests.csv
+    with open(out / "tests.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["question", "test", "passed", "results", "share_passed"])
+        for (qid, test), (passed, seen) in sorted(rep.tests.items(), key=lambda kv: (_qorder(kv[0][0]), kv[0][1])):
+            w.writerow([qid, test, passed, seen, f"{passed / seen:.3f}" if seen else ""])
+    written["tests"] = out / "tests.csv"
+    # mistakes.csv
+    mistakes = sorted(rep.mistakes.items(), key=lambda kv: (-len(kv[1]), _qorder(kv[0][0]), kv[0][1]))
+    with open(out / "mistakes.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["question", "mistake", "count", "students"])
+        for (qid, name), studs in mistakes:
+            w.writerow([qid, name, len(studs), " ".join(sorted(studs))])
+    written["mistakes"] = out / "mistakes.csv"
+    # grades.csv and canvas.csv
+    if (graded / "grades.csv").is_file():
+        shutil.copyfile(graded / "grades.csv", out / "grades.csv")
+    else:
+        with open(out / "grades.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["student_id", "total", *_QUESTION_IDS])
+            for s in rep.students:
+                w.writerow([s, points(rep.totals[s])] + [points(rep.scores[q][s]) for q in _QUESTION_IDS])
+    written["grades"] = out / "grades.csv"
+    with open(out / "canvas.csv", "w", newline="", encoding="utf-8") as fh:
+        csv.writer(fh).writerows(canvas_rows(rep, assignment, _read_roster(Path(roster)) if roster else None,
+                                             per_question))
+    written["canvas"] = out / "canvas.csv"
+    # histograms
+    pngs = {}
+    for qid in _QUESTION_IDS:
+        pngs[qid] = _histogram_png(rep.scores[qid].values(), _POINTS[qid], f"{qid}: {len(rep.students)} students")
+    base_max = sum(_POINTS[q] for q in _QUESTION_IDS if q not in _EXTRA)
+    pngs["total"] = _histogram_png(rep.totals.values(), base_max, "total (autograded)")
+    for key, data in pngs.items():
+        p = out / f"histogram_{key.replace('.', '_')}.png"
+        p.write_bytes(data)
+        written[f"histogram_{key}"] = p
+    write_atomic(out / "report.html", _page(rep, pngs, mistakes))
+    written["html"] = out / "report.html"
+    return written
+
+
+def _qorder(qid: str) -> int:
+    return _QUESTION_IDS.index(qid) if qid in _QUESTION_IDS else len(_QUESTION_IDS)
+
+
+def _img(data: bytes, alt: str) -> str:
+    return f"<img alt='{html.escape(alt)}' src='data:image/png;base64,{base64.b64encode(data).decode()}'>"
+
+
+def _page(rep: ClassReport, pngs: dict, mistakes) -> str:
+    n = len(rep.students)
+    e = html.escape
+    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>Class report</title>",
+             f"<style>{STYLE}</style></head><body><h1>Class report</h1>",
+             f"<p>{n} graded results; {len(rep.failures)} could not be graded"
+             + (f" ({e(', '.join(sorted(rep.failures)))})" if rep.failures else "") + ".</p>",
+             "<h2>Scores</h2><table><tr><th>question</th><th>points</th><th>mean</th><th>median</th>"
+             "<th>full marks</th><th>zero</th></tr>"]
+    for qid in _QUESTION_IDS:
+        v = np.array(list(rep.scores[qid].values()) or [0.0])
+        full = int(np.sum(v >= _POINTS[qid] - 1e-9))
+        zero = int(np.sum(v <= 1e-9))
+        parts.append(f"<tr><td>{qid}</td><td>{_POINTS[qid]}</td><td>{v.mean():.2f}</td><td>{np.median(v):.2f}</td>"
+                     f"<td>{full / max(n, 1):.0%}</td><td>{zero / max(n, 1):.0%}</td></tr>")
+    parts.append("</table><div>" + "".join(_img(pngs[k], f"histogram {k}") for k in ["total", *_QUESTION_IDS])
+                 + "</div>")
+    parts.append("<h2>Share of the class that passed each test</h2><table><tr><th>question</th><th>test</th>"
+                 "<th>passed</th><th>share</th></tr>")
+    for (qid, test), (passed, seen) in sorted(rep.tests.items(), key=lambda kv: (_qorder(kv[0][0]), kv[0][1])):
+        share = passed / seen if seen else 0.0
+        cls = " class='flag'" if share < 0.5 else ""
+        parts.append(f"<tr{cls}><td>{qid}</td><td>{e(test)}</td><td>{passed} / {seen}</td><td>{share:.0%}</td></tr>")
+    parts.append("</table><h2>Named mistakes</h2>")
+    if mistakes:
+        parts.append("<table><tr><th>question</th><th>mistake</th><th>students</th><th>who</th></tr>")
+        for (qid, name), studs in mistakes:
+            parts.append(f"<tr><td>{qid}</td><td>{e(name)}</td><td>{len(studs)}</td>"
+                         f"<td>{e(', '.join(sorted(studs)))}</td></tr>")
+        parts.append("</table>")
+    else:
+        parts.append("<p>No known mistake was named in the feedback.</p>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
