@@ -5,15 +5,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
-from starter import invRodrigues, rodrigues
+from core.geometry import project
 from core.validate import as_matrix, as_points, same_length
+from starter import invRodrigues, rodrigues
 
 __all__ = ["rodriguesResidual", "bundleAdjustment"]
-
-
-def _project(C, w):
-    h = w @ C[:, :3].T + C[:, 3]
-    return h[:, :2] / h[:, 2:]
 
 
 def rodriguesResidual(K1, M1, p1, K2, p2, x):
@@ -46,7 +42,7 @@ def _residuals(C1, K2, p1, p2, x):
     n = len(p1)
     w = x[:3 * n].reshape(n, 3)
     M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), x[3 * n + 3:, None]])
-    return np.concatenate([(p1 - _project(C1, w)).ravel(), (p2 - _project(K2 @ M2, w)).ravel()])
+    return np.concatenate([(p1 - project(C1, w)).ravel(), (p2 - project(K2 @ M2, w)).ravel()])
 
 
 def _jacobian(fun, z, n, f0):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
+from core.geometry import project
 from core.validate import as_finite_scalar, as_matrix, as_points, same_length
 
 __all__ = ["MultiviewReconstruction", "plot_3d_keypoint_video"]
@@ -15,11 +16,6 @@ def _dlt(Cs, xy):
     A = np.concatenate([xy[:, :1] * Cs[:, 2] - Cs[:, 0], xy[:, 1:] * Cs[:, 2] - Cs[:, 1]])
     X = np.linalg.svd(A)[2][-1]
     return X[:3] / X[3]
-
-
-def _reproject(Cs, P):
-    h = np.einsum("vij,j->vi", Cs[:, :, :3], P) + Cs[:, :, 3]
-    return h[:, :2] / h[:, 2:]
 
 
 def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
@@ -52,8 +48,10 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
         v = np.flatnonzero(used[i])
         if v.size < 2:
             continue
-        P0 = _dlt(Cs[v], xy[i, v])
-        fit = scipy.optimize.least_squares(lambda X: (_reproject(Cs[v], X) - xy[i, v]).ravel(), P0, method="lm")
+        views, seen = Cs[v], xy[i, v]
+        P0 = _dlt(views, seen)
+        fit = scipy.optimize.least_squares(
+            lambda X: (np.concatenate([project(C, X) for C in views]) - seen).ravel(), P0, method="lm")
         P[i] = fit.x
         err += float(np.sum(fit.fun ** 2))
     return P, err

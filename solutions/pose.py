@@ -6,8 +6,9 @@ import warnings
 
 import numpy as np
 
-from starter import camera2
+from core.geometry import IDENTITY_POSE, depths
 from core.validate import as_matrix, as_points, same_length
+from starter import camera2
 
 from .essential import essentialMatrix
 from .triangulation import triangulate
@@ -42,13 +43,13 @@ def findM2(F, pts1, pts2, K1, K2):
     p2 = as_points(pts2, "pts2")
     n = same_length(pts1=p1, pts2=p2)
     M2s = camera2(essentialMatrix(F, K1, K2))
-    C1 = K1 @ np.hstack([np.eye(3), np.zeros((3, 1))])
+    C1 = K1 @ IDENTITY_POSE
     best = None
     for i in range(M2s.shape[2]):
         M2 = M2s[:, :, i]
         C2 = K2 @ M2
         w, err = triangulate(C1, p1, C2, p2)
-        in_front = int(np.sum((w[:, 2] > 0) & (w @ M2[2, :3] + M2[2, 3] > 0)))
+        in_front = int(np.sum((depths(IDENTITY_POSE, w) > 0) & (depths(M2, w) > 0)))
         key = (in_front, -err)
         if best is None or key > best[0]:
             best = (key, M2, C2, w)

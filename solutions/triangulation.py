@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.geometry import project
 from core.validate import as_matrix, as_points, same_length
 
 __all__ = ["triangulate"]
@@ -41,9 +42,5 @@ def triangulate(C1, pts1, C2, pts2):
     X = np.linalg.svd(A)[2][:, -1, :]            # (N, 4) homogeneous points
     with np.errstate(divide="ignore", invalid="ignore"):
         w = X[:, :3] / X[:, 3:]
-    err = 0.0
-    for C, p in ((C1, p1), (C2, p2)):
-        h = w @ C[:, :3].T + C[:, 3]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            err += float(np.sum((p - h[:, :2] / h[:, 2:]) ** 2))
+    err = float(np.sum((p1 - project(C1, w)) ** 2) + np.sum((p2 - project(C2, w)) ** 2))
     return w, err

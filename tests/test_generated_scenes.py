@@ -9,12 +9,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.geometry import IDENTITY_POSE
 from scenes.defaults import default_car, default_temple
 from solutions import (MultiviewReconstruction, bundleAdjustment, compute3D_pts, eightpoint, essentialMatrix, findM2,
                        triangulate)
 from starter import epipolar_distances, ransacF
 
-M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+M1 = IDENTITY_POSE
 
 
 @pytest.fixture(scope="module")

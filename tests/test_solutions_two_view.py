@@ -5,18 +5,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.geometry import IDENTITY_POSE, fundamental_from_pose, project
+from scenes.cameras import rotation_about
 from solutions import (MultiviewReconstruction, bundleAdjustment, eightpoint, essentialMatrix, findM2,
                        rodriguesResidual, triangulate)
 from starter import epipolar_distances, invRodrigues
 
-M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+M1 = IDENTITY_POSE
 
 
-def _true_F(d):
-    R, t = d["M2"][:, :3], d["M2"][:, 3]
-    tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
-    F = np.linalg.inv(d["K2"]).T @ tx @ R @ np.linalg.inv(d["K1"])
-    return F / np.linalg.norm(F)
+@pytest.fixture
+def true_F(two_view):
+    return fundamental_from_pose(two_view["K1"], two_view["K2"], two_view["M2"])
 
 
 def _same_up_to_sign(A, B, atol):
@@ -24,11 +24,11 @@ def _same_up_to_sign(A, B, atol):
 
 
 @pytest.mark.parametrize("refine", [False, True])
-def test_eightpoint_recovers_F_up_to_scale_and_sign(two_view, refine):
+def test_eightpoint_recovers_F_up_to_scale_and_sign(two_view, true_F, refine):
     F = eightpoint(two_view["pts1"], two_view["pts2"], 640, refine=refine)
     assert np.linalg.norm(F) == pytest.approx(1.0)
     assert np.linalg.svd(F, compute_uv=False)[2] < 1e-12
-    assert _same_up_to_sign(F, _true_F(two_view), 1e-6)
+    assert _same_up_to_sign(F, true_F, 1e-6)
     assert epipolar_distances(F, two_view["pts1"], two_view["pts2"]).max() < 1e-6
 
 
@@ -40,8 +40,8 @@ def test_eightpoint_is_not_fooled_by_transposition(two_view):
     assert not _same_up_to_sign(F12, F12.T, 1e-3)
 
 
-def test_essential_matrix_has_two_equal_singular_values(two_view):
-    E = essentialMatrix(_true_F(two_view), two_view["K1"], two_view["K2"])
+def test_essential_matrix_has_two_equal_singular_values(two_view, true_F):
+    E = essentialMatrix(true_F, two_view["K1"], two_view["K2"])
     s = np.linalg.svd(E, compute_uv=False)
     assert s[0] == pytest.approx(s[1], rel=1e-9) and s[2] < 1e-9 * s[0]
 
@@ -55,15 +55,13 @@ def test_triangulate_recovers_exact_points(two_view):
 def test_triangulation_error_is_the_sum_of_squared_pixel_errors(two_view, rng):
     p1 = two_view["pts1"] + rng.normal(0, 1.0, two_view["pts1"].shape)
     w, err = triangulate(two_view["C1"], p1, two_view["C2"], two_view["pts2"])
-    from scenes.cameras import project
-
     expected = np.sum((project(two_view["C1"], w) - p1) ** 2) + np.sum((project(two_view["C2"], w) - two_view["pts2"]) ** 2)
     assert err == pytest.approx(expected, rel=1e-9)
     assert 0 < err < np.sum((p1 - two_view["pts1"]) ** 2)
 
 
-def test_findM2_chooses_the_true_camera(two_view):
-    M2, C2, w = findM2(_true_F(two_view), two_view["pts1"], two_view["pts2"], two_view["K1"], two_view["K2"])
+def test_findM2_chooses_the_true_camera(two_view, true_F):
+    M2, C2, w = findM2(true_F, two_view["pts1"], two_view["pts2"], two_view["K1"], two_view["K2"])
     np.testing.assert_allclose(M2, two_view["M2"], atol=1e-8)
     np.testing.assert_allclose(C2, two_view["K2"] @ M2)
     np.testing.assert_allclose(w, two_view["X"], rtol=1e-6)
@@ -90,8 +88,6 @@ def test_bundle_adjustment_lowers_the_error_and_approaches_the_truth(two_view, r
 
 def test_multiview_uses_only_confident_views(two_view, rng):
     d = two_view
-    from scenes.cameras import project, rotation_about
-
     M3 = np.hstack([rotation_about([0, 1, 0], -0.1), np.array([[-0.8], [0.1], [0.2]])])
     C3 = d["K1"] @ M3
     X = d["X"][:12]
