@@ -33,7 +33,7 @@ from .reader import FUNCTIONS, FunctionSource, SubmissionCode, stub_sources
 __all__ = ["FLAG", "MIN_SHARED", "FunctionComparison", "Pair", "compare", "given_hashes"]
 
 FLAG = 0.5
-MIN_SHARED = 12.0
+MIN_SHARED = 24.0  # about three statements: a fingerprint per unit plus its winnowed k-grams
 _CONTAINMENT_DISCOUNT = 0.15
 
 
