@@ -41,12 +41,13 @@ def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *
              "A high score is a reason to read the two side by side, not a finding: short functions, "
              "shared sources and common textbook code can look alike. The course staff decide.</p>"]
     for function, comp in comparisons.items():
-        pairs = comp.ranked(top)
-        flagged = sum(p.flagged for p in pairs)
+        pairs = comp.ranked(top, flagged_too=False)
+        flagged = int(((comp.score >= FLAG).sum()) // 2) if len(comp.names) else 0
         parts.append(f"<h2 id='{function}'>{html.escape(function)}</h2><p>{len(comp.names)} submissions compared, "
                      f"{flagged} pair(s) to look at"
                      + (f"; without their own code for it: {html.escape(', '.join(comp.skipped))}" if comp.skipped
-                        else "") + ".</p>")
+                        else "") + (f"; the first {len(pairs)} shown here, all flagged pairs are in similarity.csv"
+                                    if flagged > len(pairs) else "") + ".</p>")
         if not pairs:
             continue
         parts.append("<table><tr><th>rank</th><th>a</th><th>b</th><th>score</th><th>jaccard</th>"
