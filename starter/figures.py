@@ -39,7 +39,8 @@ import numpy as np
 
 from core.validate import as_points
 
-__all__ = ["Figure3D", "plot_points_3d", "points_with_gaps", "DEFAULT_COLORS", "plotly_cdn_url"]
+__all__ = ["Figure3D", "plot_points_3d", "points_with_gaps", "DEFAULT_COLORS", "plotly_cdn_url",
+           "crowded_labels"]
 
 #: Colours given to successive point sets (matplotlib's tab10, as hex so plotly reads them too).
 DEFAULT_COLORS: tuple[str, ...] = (
@@ -343,8 +344,10 @@ def _plotly_figure(sets, labels, colors, edges, hover_text, title, layout, marke
     up_vector = {"-y": (0, -1, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[up]
     eye = 2.0 * _viewer_direction(up, *view)
     camera = dict(up=dict(zip("xyz", up_vector)), eye=dict(zip("xyz", eye.tolist())))
-    axes = dict(xaxis_title=axis_titles[0], yaxis_title=axis_titles[1],
-                zaxis_title=axis_titles[2], aspectmode="data", camera=camera)
+    axes = dict(xaxis=dict(title=axis_titles[0], nticks=_MAX_TICK_BINS + 1),
+                yaxis=dict(title=axis_titles[1], nticks=_MAX_TICK_BINS + 1),
+                zaxis=dict(title=axis_titles[2], nticks=_MAX_TICK_BINS + 1),
+                aspectmode="data", camera=camera)
     for i in range(n if side else 1):
         fig.layout[f"scene{i + 1}" if i > 0 else "scene"].update(axes)
     fig.update_layout(title=title or None, height=height, margin=dict(l=0, r=0, t=60, b=0))
@@ -360,7 +363,7 @@ def _matplotlib_figure(sets, labels, colors, edges, title, layout, marker_size, 
     n = len(sets)
     side = layout == "side_by_side" and n > 1
     width, height = size_inches
-    fig = Figure(figsize=(width * (n if side else 1) * (0.75 if side else 1), height))
+    fig = Figure(figsize=(width * (n if side else 1) * (0.85 if side else 1), height))
     groups = [[i] for i in range(n)] if side else [list(range(n))]
     for k, members in enumerate(groups):
         ax = fig.add_subplot(1, len(groups), k + 1, projection="3d")
@@ -377,30 +380,131 @@ def _matplotlib_figure(sets, labels, colors, edges, title, layout, marker_size, 
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_zlim(lo[2], hi[2])
+        # The view first: set_box_aspect stores the aspect rolled for the current vertical axis,
+        # so setting it before view_init(vertical_axis="y") would give X the span of Y and so on.
+        ax.view_init(**_matplotlib_view(up, *view))
         # one unit is one unit on every axis: the box takes the data's proportions
         ax.set_box_aspect(hi - lo)
         for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-            # few ticks: a foreshortened axis would otherwise print its labels on top of each other
-            axis.set_major_locator(MaxNLocator(4))
+            axis.set_major_locator(MaxNLocator(_MAX_TICK_BINS))
         ax.set_xlabel(axis_titles[0])
         ax.set_ylabel(axis_titles[1])
         ax.set_zlabel(axis_titles[2])
-        ax.view_init(**_matplotlib_view(up, *view))
         if side:
             ax.set_title(labels[i])
-        elif any(labels[i] for i in members) and len(members) > 1:
-            ax.legend(loc="upper left", fontsize="small")
+    legend = not side and n > 1 and any(labels)
+    if legend:
+        # below the view, in rows of at most ten, so that it never covers a point
+        handles, names = fig.axes[0].get_legend_handles_labels()
+        fig.legend(handles, names, loc="lower center", ncols=min(len(names), 10 if n > 5 else 5),
+                   fontsize="small", frameon=False, handletextpad=0.2, columnspacing=1.0)
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    rows = -(-n // (10 if n > 5 else 5)) if legend else 0
+    fig.tight_layout(rect=(0.0, 0.05 * rows, 1.0, 1.0))
+    _thin_crowded_ticks(fig)
     return fig
+
+
+#: At most this many intervals between ticks (so at most five tick labels per axis).
+_MAX_TICK_BINS = 4
+
+
+def _label_boxes(fig, renderer) -> list[tuple[object, bool, object]]:
+    """(axis, is_title, bounding box) of every drawn tick label and axis title of the 3D axes."""
+    boxes = []
+    for ax in fig.axes:
+        if ax.name != "3d":
+            continue
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            locs = axis.get_majorticklocs()
+            for loc, tick in zip(locs, axis.get_major_ticks(len(locs))):
+                if lo <= loc <= hi and tick.label1.get_visible() and tick.label1.get_text():
+                    boxes.append((axis, False, tick.label1.get_window_extent(renderer)))
+            if axis.label.get_text():
+                boxes.append((axis, True, axis.label.get_window_extent(renderer)))
+    return boxes
+
+
+def crowded_labels(fig, pad: float = 2.0) -> list[tuple[object, bool, object, bool]]:
+    """Pairs of 3D-axes labels (tick labels and axis titles) closer than ``pad`` pixels.
+
+    Each pair is (axis_a, a_is_title, axis_b, b_is_title).  The figure is drawn first (without
+    rendering pixels), so the positions are those of the saved PNG at the figure's dpi.
+    """
+    fig.draw_without_rendering()
+    boxes = _label_boxes(fig, fig._get_renderer())
+    pairs = []
+    for i, (axis_a, title_a, a) in enumerate(boxes):
+        for axis_b, title_b, b in boxes[i + 1:]:
+            if a.padded(pad).overlaps(b):
+                pairs.append((axis_a, title_a, axis_b, title_b))
+    return pairs
+
+
+def _thin_crowded_ticks(fig, rounds: int = 8, step: float = 6.0) -> None:
+    """Take ticks away from axes whose labels touch, and move titles off the labels they touch.
+
+    A foreshortened axis (one seen nearly end-on) gets its tick labels close together.  Each
+    round draws the figure and then: an axis whose tick labels touch other tick labels gets one
+    tick interval fewer (down to one); a title touching a label is moved ``step`` points further
+    from its axis (of two touching titles, the later axis' one; once it cannot, the other one
+    moves closer to its axis), unless that would take it out of the figure.  It stops when nothing touches or nothing more can be done.
+    """
+    from matplotlib.ticker import MaxNLocator
+
+    bins: dict[int, int] = {}
+    stuck: set[int] = set()          # titles that would leave the figure if moved further
+    for _ in range(rounds):
+        pairs = crowded_labels(fig)
+        if not pairs:
+            return
+        to_push, to_thin, pulled = {}, {}, False
+        for axis_a, title_a, axis_b, title_b in pairs:
+            if title_a and title_b:
+                # the later axis' title moves out; once it cannot, the other one moves in
+                if id(axis_b) not in stuck:
+                    to_push[id(axis_b)] = axis_b
+                elif axis_a.labelpad > -2 * step:
+                    axis_a.labelpad -= step
+                    pulled = True
+            elif title_a or title_b:
+                axis = axis_a if title_a else axis_b
+                to_push[id(axis)] = axis
+            else:
+                to_thin[id(axis_a)] = axis_a
+                to_thin[id(axis_b)] = axis_b
+        changed = pulled
+        for key, axis in to_thin.items():
+            n = bins.get(key, _MAX_TICK_BINS)
+            if n > 1:
+                bins[key] = n - 1
+                axis.set_major_locator(MaxNLocator(n - 1))
+                changed = True
+        for key, axis in to_push.items():
+            if key not in stuck:
+                axis.labelpad += step
+                changed = True
+        if to_push:
+            fig.draw_without_rendering()
+            inside = fig.bbox
+            renderer = fig._get_renderer()
+            for key, axis in to_push.items():
+                box = axis.label.get_window_extent(renderer)
+                if key not in stuck and not (box.x0 >= inside.x0 and box.x1 <= inside.x1
+                                             and box.y0 >= inside.y0 and box.y1 <= inside.y1):
+                    axis.labelpad -= step
+                    stuck.add(key)
+        if not changed:
+            return
 
 
 def plot_points_3d(points, labels=None, title: str = "", *, edges=None, layout: str = "overlay",
                    colors=None, hover_text: Sequence[str] | None = None,
                    marker_size: float = 3.0, line_width: float = 4.0,
-                   axis_titles: Sequence[str] = ("X", "Y", "Z"), up: str = "-y",
-                   view: tuple[float, float] = (20.0, 30.0),
+                   axis_titles: Sequence[str] = ("X (right)", "Y (down)", "Z (depth)"),
+                   up: str = "-y", view: tuple[float, float] = (15.0, -30.0),
                    size_inches: tuple[float, float] = (6.4, 5.0), dpi: int = 100,
                    height: int = 520) -> Figure3D:
     """Plot one or more 3D point sets, rotatable on screen, with a PNG for the PDF.
@@ -426,6 +530,8 @@ def plot_points_3d(points, labels=None, title: str = "", *, edges=None, layout: 
     marker_size, line_width : float
         Marker diameter and edge width, in plotly's pixel units (matplotlib scales them).
     axis_titles : 3 str
+        Axis names with their conventions; the default names camera coordinates (camera 1's X
+        right, Y down, Z forward along the optical axis), the frame of the temple.
     up : {"-y", "y", "z"}
         The world direction drawn upwards.  The default suits this homework, whose points are in
         camera coordinates (X right, Y down, Z forward) or, for the car, a world frame whose -Y
@@ -433,7 +539,9 @@ def plot_points_3d(points, labels=None, title: str = "", *, edges=None, layout: 
     view : (elev, azim)
         Starting viewpoint of both renderings, in degrees: height above the horizontal plane and
         turn about ``up``.  For ``up="-y"`` or ``"y"``, (0, 0) looks along +Z from behind
-        camera 1 and a positive ``azim`` moves the viewer towards +X.
+        camera 1 and a positive ``azim`` moves the viewer towards +X.  The default looks from
+        slightly above and to the left of camera 1, so the front of the object and its depth
+        both show.
     size_inches, dpi :
         Size of the static figure per view and the PNG resolution.
     height : int

@@ -15,9 +15,76 @@ from .figures import DEFAULT_COLORS, Figure3D, plot_points_3d, points_with_gaps
 from core.skeleton import CAR_KEYPOINTS, CAR_SKELETON
 from core.validate import as_finite_scalar, as_image, as_points
 
-__all__ = ["visualize_keypoints", "plot_3d_keypoint", "plot_3d_keypoint_frames"]
+__all__ = ["visualize_keypoints", "plot_3d_keypoint", "plot_3d_keypoint_frames", "car_view",
+           "WORLD_AXIS_TITLES"]
+
+#: Axis titles of the car figures: the world frame of the extrinsics, whose -Y is up.
+WORLD_AXIS_TITLES = ("X (world)", "Y (world, down)", "Z (world)")
+
+# Keypoint rows of the front and the rear of the car (CAR_KEYPOINTS order).
+_FRONT = [0, 1, 4, 5, 8, 9]
+_REAR = [2, 3, 6, 7, 10, 11]
 
 
+def _horizontal(v: np.ndarray) -> np.ndarray:
+    """(x, z) part of a world vector: the ground plane of a world whose -Y is up."""
+    return np.array([v[0], v[2]])
+
+
+def _car_forward(P: np.ndarray) -> np.ndarray | None:
+    """Front minus rear of one car (N = 12 rows, NaN allowed), or None when a side is missing."""
+    if len(P) != len(CAR_KEYPOINTS):
+        return None
+    front, rear = P[_FRONT], P[_REAR]
+    front, rear = front[np.isfinite(front).all(axis=1)], rear[np.isfinite(rear).all(axis=1)]
+    if not len(front) or not len(rear):
+        return None
+    return front.mean(axis=0) - rear.mean(axis=0)
+
+
+def car_view(frames, *, elev: float = 45.0, turn: float = 25.0) -> tuple[float, float]:
+    """A viewpoint (elev, azim) for ``plot_points_3d(..., up="-y")`` that shows the car moving.
+
+    The viewer looks down on the ground plane (the world's X-Z plane, -Y being up) from
+    ``elev`` degrees above it, from the side of the path: the motion runs across the picture,
+    from left (first frame) to right (last frame).  The viewer stands ``turn`` degrees behind
+    the side (looking a little along the direction of travel), so that successive cars do not
+    hide each other and the car's length, width and height all show.  Without
+    motion (one frame, or a car that does not move) the car's own front-rear axis takes the
+    place of the path.
+
+    Parameters
+    ----------
+    frames : sequence of T arrays of shape (N, 3)
+        World points per time step; NaN rows are missing keypoints.
+    elev, turn : float
+        Degrees.
+
+    Returns
+    -------
+    (elev, azim) : tuple of float
+        Degrees, in the convention of :func:`starter.figures.plot_points_3d`'s ``view``.
+    """
+    sets = [np.asarray(f, dtype=float) for f in frames]
+    centres = [f[np.isfinite(f).all(axis=1)].mean(axis=0) for f in sets if np.isfinite(f).all(axis=1).any()]
+    direction = None
+    if len(centres) >= 2:
+        path = _horizontal(centres[-1] - centres[0])
+        spread = max(np.ptp(np.concatenate([f[np.isfinite(f).all(axis=1)] for f in sets]), axis=0).max(), 1e-12)
+        if np.linalg.norm(path) > 0.05 * spread:
+            direction = path
+    if direction is None:
+        forwards = [fw for fw in (_car_forward(f) for f in sets) if fw is not None]
+        if forwards:
+            direction = _horizontal(np.mean(forwards, axis=0))
+    if direction is None or not np.linalg.norm(direction) > 0:
+        direction = np.array([1.0, 0.0])
+    # plot_points_3d puts the viewer at (cos e sin a, -sin e, -cos e cos a) for up="-y": a path
+    # heading at angle phi in the (x, z) plane runs to the right of the picture for azim = phi,
+    # and a smaller azim moves the viewer towards the rear.
+    phi = np.degrees(np.arctan2(direction[1], direction[0]))
+    azim = (phi - turn + 180.0) % 360.0 - 180.0
+    return float(elev), float(azim)
 
 
 def _check_skeleton(skeleton, n_points: int, name: str) -> np.ndarray:
@@ -122,6 +189,9 @@ def plot_3d_keypoint(P, *, title: str = "car keypoints", label: str = "",
         raise ValueError("P: expected at least one keypoint without NaN, got none")
     edges = _check_skeleton(skeleton, len(pts), "P")
     names = _names(len(pts))
+    kwargs.setdefault("axis_titles", WORLD_AXIS_TITLES)
+    if kwargs.get("up", "-y") == "-y":
+        kwargs.setdefault("view", car_view([pts], elev=30.0, turn=-40.0))
     return plot_points_3d(pts, labels=label, title=title, edges=edges, colors=[color],
                           hover_text=names, **kwargs)
 
@@ -178,6 +248,9 @@ def plot_3d_keypoint_frames(frames, *, frame_labels=None, title: str = "car over
     except KeyError:
         raise ValueError(f"cmap: expected a matplotlib colormap name, got {cmap!r}") from None
     colors = [to_hex(colormap(t / max(T - 1, 1))) for t in range(T)]
+    kwargs.setdefault("axis_titles", WORLD_AXIS_TITLES)
+    if kwargs.get("up", "-y") == "-y":
+        kwargs.setdefault("view", car_view(sets))
     return plot_points_3d(sets, labels=frame_labels, title=title, edges=edges, colors=colors,
                           hover_text=_names(len(sets[0])), **kwargs)
 
