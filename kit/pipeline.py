@@ -147,7 +147,8 @@ def _write_figures(out, d, F, W, w_before, w_after, o1, o2, car, data, times) ->
     save(pairs(d.pts1[idx]), "q2_epipolar_lines.png")
     jdx = np.linspace(0, len(d.x1) - 1, 6).astype(int)
     save(pairs(np.column_stack([d.x1, d.y1])[jdx], epipolarCorrespondence), "q4_epipolar_matches.png")
-    save(plot_points_3d(W, title="Q4.2 the temple from 288 matched points").matplotlib, "q4_temple_3d.png")
+    save(plot_points_3d(W, title=f"Q4.2 the temple from {len(W)} matched points\n"
+                                 "(camera-1 frame, unit: the baseline |t2| = 1)").matplotlib, "q4_temple_3d.png")
     save(plot_points_3d([w_before, w_after], labels=[f"before BA ({o1:.1f})", f"after BA ({o2:.1f})"],
                         title="Q5 bundle adjustment", layout="side_by_side").matplotlib, "q5_bundle_adjustment.png")
     if car is not None:
