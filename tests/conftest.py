@@ -44,7 +44,8 @@ def two_view(rng):
     Returned as a dict: K1, K2 (3x3), M2 (3x4), X (N, 3) world points in camera-1 coordinates
     in front of both cameras, pts1, pts2 (N, 2) exact pixel projections.
     """
-    from scenes.cameras import intrinsics, project, rotation_about
+    from core.geometry import project
+    from scenes.cameras import intrinsics, rotation_about
 
     K = intrinsics(800.0, 320.0, 240.0)
     R = rotation_about(rng.normal(size=3), 0.15)
