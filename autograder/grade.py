@@ -3,11 +3,9 @@
 One submission is one sandbox job: the student's notebooks are loaded once (imports take seconds)
 and every hidden test is a call of that job; a call that hangs or crashes costs only its own
 function's questions, because the child restarts for the rest.  The job's code is every kept
-statement of every notebook in manifest order (less those that run homework functions, such as
-the notebooks' self-check and figure cells), then again each notebook's own definitions of
-its own functions, so that (as in ``Submission.units_for``) a function is taken from its own
-notebook when it is defined there and borrowed from another one otherwise; the grader's
-helpers come last.
+statement of every notebook (``Submission.units``: definitions, not the notebooks' self-check and
+figure cells; a function taken from its own notebook when it is defined there and borrowed from
+another one otherwise), then the grader's helpers.
 
 A batch writes, per submission, ``<out>/<name>/results.json`` (Gradescope's schema),
 ``feedback.md`` (what the student reads) and ``grading.json`` (for staff: scores, digests,
@@ -19,7 +17,6 @@ submission does can stop the batch: the catastrophic path writes a failed result
 
 from __future__ import annotations
 
-import ast
 import csv
 import hashlib
 import json
@@ -36,7 +33,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.manifest import NOTEBOOKS, QUESTIONS, functions_of_notebook
+from core.manifest import NOTEBOOKS
 from core.text import points, write_atomic
 
 from .config import GRADER_VERSION, GradingConfig, load_config
@@ -65,38 +62,9 @@ _OUTPUT_KEPT = 8000         # characters of the student's stdout/stderr kept for
 # ------------------------------------------------------------------------------- one submission
 
 
-_HOMEWORK = frozenset(f for q in QUESTIONS for f in q.functions)
-_RUNNERS = frozenset({"try_run", "from_notebook", "notebook_definitions"})
-
-
-def _runs_homework(unit: SourceUnit) -> bool:
-    """True for a kept assignment that calls homework code: ``report = check_triangulate(triangulate)``,
-    ``F = try_run(eightpoint, ...)``, ``eightpoint = from_notebook(...)``.
-
-    Notebooks run their self-checks and figures this way; the grader wants definitions only, and
-    running student functions while loading would make one broken function break the loading.
-    """
-    try:
-        tree = ast.parse(unit.source)
-    except SyntaxError:
-        return False
-    node = tree.body[0] if len(tree.body) == 1 else None
-    value = getattr(node, "value", None) if isinstance(node, (ast.Assign, ast.AnnAssign)) else None
-    if value is None or not any(isinstance(n, ast.Call) for n in ast.walk(value)):
-        return False
-    names = {n.id for n in ast.walk(value) if isinstance(n, ast.Name)}
-    return bool(names & (_HOMEWORK | _RUNNERS)) or any(n.startswith("check_") for n in names)
-
-
 def job_units(sub: Submission) -> list[SourceUnit]:
-    """The units of the single grading job (see the module docstring for the order)."""
-    kept = {stem: [u for u in sub.notebooks[stem].units if not _runs_homework(u)]
-            for stem in NOTEBOOKS if stem in sub.notebooks}
-    units = [u for stem in kept for u in kept[stem]]
-    for stem, own_units in kept.items():
-        own = set(functions_of_notebook(stem))
-        units += [u for u in own_units if own & set(u.defines)]
-    return units + [HELPER_UNIT]
+    """The units of the single grading job: the submission's code (``Submission.units``), then the grader's helpers."""
+    return list(sub.units()) + [HELPER_UNIT]
 
 
 def _load_notes(job_result) -> list[str]:
@@ -107,15 +75,6 @@ def _load_notes(job_result) -> list[str]:
         if re.match(r"(ModuleNotFoundError|ImportError)\b", message):
             notes.append(f"{origin}: {message.split(' (in ', 1)[0]}; code that needs it will fail.")
     return list(dict.fromkeys(notes))[:10]
-
-
-def _diagnostics(sub: Submission) -> list[str]:
-    # The submission's notes, less "f was found in <cell>" when that cell only fetches f from a
-    # sibling notebook (from_notebook): the grader does not run those, so the note would mislead.
-    skipped = {(u.origin, name) for stem in sub.notebooks for u in sub.notebooks[stem].units
-               if _runs_homework(u) for name in u.defines}
-    return [n for n in sub.diagnostics()
-            if not any(n.startswith(f"{name} was found in {origin}") for origin, name in skipped)]
 
 
 def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs: HiddenInputs,
@@ -160,7 +119,7 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
     staff.update(stdout=result.stdout[:_OUTPUT_KEPT], stderr=result.stderr[:_OUTPUT_KEPT],
                  spawns=result.spawns, swept=result.swept)
     questions = judge_all(hidden_inputs, result.outcomes, staff["log"])
-    notes = _diagnostics(sub) + _load_notes(result)
+    notes = [str(n) for n in sub.notes()] + _load_notes(result)
     return SubmissionResult(tuple(questions), student_id, isolation, tuple(notes), None,
                             time.monotonic() - start)
 

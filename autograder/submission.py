@@ -2,35 +2,45 @@
 
 A submission is a folder or a .zip of the per-question notebooks (``q2_eightpoint.ipynb`` ...), or
 of ``.py`` files.  Files are matched to the manifest's notebooks by the question number in their
-name (``q2``, ``Q2 eightpoint (1).ipynb``, ``hw4_q2.py``), wherever they sit in the tree.
+name (``q2``, ``Q2 eightpoint (1).ipynb``, ``hw4_q2.py``), wherever they sit in the tree, and a
+notebook whose name has no question number by the stem the kit wrote in its metadata.
 
-From each notebook we keep what defines things, as if the notebook were run from top to bottom
-but without its heavy or side-effecting statements: top-level imports, function and class
-definitions, ``try`` blocks made only of those, and assignments of simple constants.  Each kept
+From each notebook we keep what defines things (:func:`core.notebook.definitions`, the kit's one
+rule set): top-level imports, function and class definitions, ``try`` blocks made only of those,
+and assignments of simple constants, but not statements that run the homework (the notebooks'
+self-checks, ``try_run``, ``from_notebook``: the grader loads every notebook itself).  Each kept
 statement becomes a ``SourceUnit`` that the sandbox executes on its own, so one failing import
-does not lose the definitions after it; since units run in notebook order, the last definition
-of a name wins.  A code cell with a syntax error is skipped whole and reported; a notebook that
-is not valid JSON is reported as unreadable and the others are still used.
+does not lose the definitions after it; since units run in order, the last definition of a name
+wins.  :meth:`Submission.units` is exactly the code the grading job loads; :meth:`Submission.notes`
+says, as data, what the student should know (unreadable files, syntax errors, redefinitions,
+missing or borrowed functions, files not used).  A code cell with a syntax error is skipped whole;
+a notebook that is not valid JSON is unreadable and the others are still used.
 """
 
 from __future__ import annotations
 
-import ast
-import builtins
-import json
 import os
 import re
 import stat
-import warnings
 import zipfile
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
-from core.manifest import NOTEBOOKS, functions_of_notebook
+from core.manifest import NOTEBOOKS, QUESTIONS, functions_of_notebook
+from core.notebook import (
+    Cell,
+    CellProblem,
+    NotebookUnreadable,
+    code_cells,
+    definitions,
+    notebook_stem,
+    parse_cells as parse_code_cells,
+)
 
 __all__ = [
     "CellProblem",
+    "Note",
     "ParsedNotebook",
     "SizeLimits",
     "SourceUnit",
@@ -41,6 +51,8 @@ __all__ = [
     "parse_notebook",
     "parse_python",
 ]
+
+_HOMEWORK = frozenset(f for q in QUESTIONS for f in q.functions)
 
 
 class SubmissionError(ValueError):
@@ -79,12 +91,42 @@ class SourceUnit:
 
 
 @dataclass(frozen=True)
-class CellProblem:
-    """A code cell that was skipped: its 1-based position among all cells, the line, the reason."""
+class Note:
+    """Something about the submission the student should know, as data.
 
-    cell: int
-    line: int | None
-    message: str
+    kind: "unreadable" (``detail``: why), "syntax_error" (``cell``, ``line``, ``detail``: the
+    message), "redefined" (``name``, ``count``, ``detail``: the winning definition), "missing"
+    (``name``), "borrowed" (``name`` found in another notebook, ``detail``: where), "no_file"
+    (``stem`` has no file), "not_used" (``file`` left out, ``detail``: why).
+    file: the submission's file concerned (None for "no_file" and "borrowed").
+    """
+
+    kind: str
+    file: str | None = None
+    stem: str | None = None
+    name: str | None = None
+    cell: int | None = None
+    line: int | None = None
+    count: int | None = None
+    detail: str = ""
+
+    def __str__(self) -> str:
+        if self.kind == "unreadable":
+            return f"{self.file} could not be read: {self.detail}. None of its code was used."
+        if self.kind == "syntax_error":
+            where = f" (line {self.line})" if self.line else ""
+            return f"{self.file}, cell {self.cell}: {self.detail}{where}; the code of that cell was not used."
+        if self.kind == "redefined":
+            return f"{self.file}: {self.name} is defined {self.count} times; the last one ({self.detail}) is used."
+        if self.kind == "missing":
+            return f"{self.file}: {self.name} is not defined."
+        if self.kind == "borrowed":
+            return f"{self.name} was found in {self.detail} and is used from there."
+        if self.kind == "no_file":
+            return f"No file for {self.stem} (expected a notebook whose name starts with {_qkey(self.stem)})."
+        if self.kind == "not_used":
+            return f"Not used: {self.file} ({self.detail})"
+        return f"{self.file}: {self.detail}"
 
 
 @dataclass(frozen=True)
@@ -119,19 +161,16 @@ class ParsedNotebook:
         """All kept statements as one program (for reading; the sandbox runs ``units``)."""
         return "\n\n".join(f"# {u.origin}, line {u.line}\n{u.source}" for u in self.units) + "\n"
 
-    def diagnostics(self) -> list[str]:
-        """Sentences for the student about this file (unreadable, syntax errors, redefinitions, missing)."""
+    def notes(self) -> list[Note]:
+        """What the student should know about this file: unreadable, syntax errors, redefinitions, missing."""
+        f = self.filename
         if not self.readable:
-            return [f"{self.filename} could not be read: {self.error}. None of its code was used."]
-        notes = []
-        for p in self.syntax_errors:
-            where = f" (line {p.line})" if p.line else ""
-            notes.append(f"{self.filename}, cell {p.cell}: {p.message}{where}; the code of that cell was not used.")
-        for name in self.expected:
-            if name in self.redefined:
-                notes.append(f"{self.filename}: {name} is defined {self.redefined[name]} times; "
-                             f"the last one ({self.definitions[name]}) is used.")
-        notes.extend(f"{self.filename}: {name} is not defined." for name in self.missing)
+            return [Note("unreadable", f, self.stem, detail=self.error or "")]
+        notes = [Note("syntax_error", f, self.stem, cell=p.cell, line=p.line, detail=p.message)
+                 for p in self.syntax_errors]
+        notes += [Note("redefined", f, self.stem, name=name, count=self.redefined[name],
+                       detail=self.definitions[name]) for name in self.expected if name in self.redefined]
+        notes += [Note("missing", f, self.stem, name=name) for name in self.missing]
         return notes
 
 
@@ -140,31 +179,30 @@ class Submission:
     """A parsed submission: one ParsedNotebook per manifest stem found.
 
     notebooks: stem -> ParsedNotebook; missing_notebooks: stems with no file; ignored: files not
-    used, each with the reason.
+    used, as "not_used" notes (``file`` and the reason in ``detail``).
     """
 
     name: str
     notebooks: dict[str, ParsedNotebook]
     missing_notebooks: tuple[str, ...] = ()
-    ignored: tuple[str, ...] = ()
+    ignored: tuple[Note, ...] = ()
 
-    def units_for(self, stem: str, *, borrow: bool = True) -> tuple[SourceUnit, ...]:
-        """The code to load in the sandbox to test the functions of notebook ``stem``.
+    def units(self) -> tuple[SourceUnit, ...]:
+        """The student's code the grading job loads, in order.
 
-        With ``borrow`` the other notebooks' statements come first (in manifest order) and this
-        notebook's last, so its own definitions win and a function written in the wrong notebook
-        is still found.
+        Every kept statement of every notebook in manifest order, then again each notebook's own
+        definitions of its own functions: a function is taken from its own notebook when it is
+        defined there, and borrowed from another notebook otherwise.
         """
-        if stem not in NOTEBOOKS:
-            raise ValueError(f"stem: expected one of {list(NOTEBOOKS)}, got {stem!r}")
-        own = self.notebooks[stem].units if stem in self.notebooks else ()
-        if not borrow:
-            return tuple(own)
-        others = [u for s in NOTEBOOKS if s != stem and s in self.notebooks for u in self.notebooks[s].units]
-        return tuple(others) + tuple(own)
+        found = [s for s in NOTEBOOKS if s in self.notebooks]
+        units = [u for s in found for u in self.notebooks[s].units]
+        for s in found:
+            own = set(functions_of_notebook(s))
+            units += [u for u in self.notebooks[s].units if own & set(u.defines)]
+        return tuple(units)
 
     def where_defined(self, function: str, stem: str) -> str | None:
-        """Origin of the definition of ``function`` that ``units_for(stem)`` would use, or None."""
+        """Origin of the definition of ``function`` that :meth:`units` makes win for notebook ``stem``, or None."""
         if stem in self.notebooks and function in self.notebooks[stem].definitions:
             return self.notebooks[stem].definitions[function]
         found = None
@@ -173,25 +211,20 @@ class Submission:
                 found = self.notebooks[s].definitions[function]
         return found
 
-    def missing_functions(self, stem: str) -> tuple[str, ...]:
-        """Functions the manifest expects from ``stem`` that no notebook of the submission defines."""
-        return tuple(f for f in functions_of_notebook(stem) if self.where_defined(f, stem) is None)
-
-    def diagnostics(self) -> list[str]:
-        """Every note about the submission, in manifest order."""
+    def notes(self) -> list[Note]:
+        """Every note about the submission, in manifest order, then the files not used."""
         notes = []
         for stem in NOTEBOOKS:
             if stem in self.missing_notebooks:
-                notes.append(f"No file for {stem} (expected a notebook whose name starts with {_qkey(stem)}).")
+                notes.append(Note("no_file", stem=stem))
             elif stem in self.notebooks:
                 nb = self.notebooks[stem]
-                notes.extend(nb.diagnostics())
+                notes.extend(nb.notes())
                 for f in nb.missing:
                     elsewhere = self.where_defined(f, stem)
                     if elsewhere:
-                        notes.append(f"{f} was found in {elsewhere} and is used from there.")
-        notes.extend(f"Not used: {reason}" for reason in self.ignored)
-        return notes
+                        notes.append(Note("borrowed", stem=stem, name=f, detail=elsewhere))
+        return notes + list(self.ignored)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -227,11 +260,14 @@ def load_submission(path: str | Path, *, stems: Sequence[str] = NOTEBOOKS,
         raise SubmissionError(f"path: expected a folder or a .zip archive, got {str(path)!r}")
 
     by_stem: dict[str, list[tuple[str, bytes]]] = {}
-    ignored: list[str] = []
+    ignored: list[Note] = []
     for name, data in files:
         stem = _stem_of(name, stems)
+        if stem is None and name.lower().endswith(".ipynb"):
+            meta = notebook_stem(data)  # a renamed notebook still knows which one it is
+            stem = meta if meta in stems else None
         if stem is None:
-            ignored.append(f"{name} (its name does not start with a question number)")
+            ignored.append(Note("not_used", name, detail="its name does not start with a question number"))
         else:
             by_stem.setdefault(stem, []).append((name, data))
 
@@ -239,7 +275,8 @@ def load_submission(path: str | Path, *, stems: Sequence[str] = NOTEBOOKS,
     for stem, candidates in by_stem.items():
         candidates.sort(key=lambda nd: _preference(nd[0], stem))
         name, data = candidates[0]
-        ignored.extend(f"{other} (another file, {name}, was used for {stem})" for other, _ in candidates[1:])
+        ignored.extend(Note("not_used", other, stem, detail=f"another file, {name}, was used for {stem}")
+                       for other, _ in candidates[1:])
         if name.lower().endswith(".py"):
             notebooks[stem] = parse_python(data, stem=stem, filename=name)
         else:
@@ -348,266 +385,46 @@ def _preference(name: str, stem: str) -> tuple:
 # notebooks and cells
 
 
-@dataclass(frozen=True)
-class _Cell:
-    number: int        # 1-based position among all cells (markdown included), as the student counts
-    text: str
-    first_line: int = 1  # line of the cell's first line in its file (for .py files split in cells)
-
-
 def parse_notebook(data: bytes | str, *, stem: str, filename: str) -> ParsedNotebook:
     """Parse the .ipynb ``data``; a notebook that cannot be read gives ``readable=False``."""
-    try:
-        cells = _notebook_cells(data)
-    except _Unreadable as exc:
-        return ParsedNotebook(stem, filename, readable=False, error=str(exc), expected=_expected(stem))
-    return parse_cells(cells, stem=stem, filename=filename)
+    return _parse(data, stem=stem, filename=filename, python_file=False)
 
 
 def parse_python(data: bytes | str, *, stem: str, filename: str) -> ParsedNotebook:
     """Parse a .py file; ``# %%`` lines (the percent format of Jupytext, VS Code, Spyder) split
     it into cells so that a syntax error loses only its cell."""
+    return _parse(data, stem=stem, filename=filename, python_file=True)
+
+
+def _parse(data: bytes | str, *, stem: str, filename: str, python_file: bool) -> ParsedNotebook:
     try:
-        text = _text(data)
-    except _Unreadable as exc:
+        if data == _TOO_BIG:
+            raise NotebookUnreadable("the file is larger than the size limit")
+        if isinstance(data, bytes) and data.startswith(b"\x00encrypted"):
+            raise NotebookUnreadable("the file is encrypted in the archive")
+        cells = code_cells(data, python_file=python_file)
+    except NotebookUnreadable as exc:
         return ParsedNotebook(stem, filename, readable=False, error=str(exc), expected=_expected(stem))
-    lines = text.splitlines(keepends=True)
-    starts = [0] + [i for i, line in enumerate(lines) if i > 0 and re.match(r"#\s?%%", line)]
-    cells = []
-    for k, (a, b) in enumerate(zip(starts, starts[1:] + [len(lines)]), start=1):
-        cells.append(_Cell(k, "".join(lines[a:b]), a + 1))
     return parse_cells(cells, stem=stem, filename=filename)
 
 
-def parse_cells(cells: Iterable[_Cell | str], *, stem: str, filename: str) -> ParsedNotebook:
+def parse_cells(cells: Iterable[Cell | str], *, stem: str, filename: str) -> ParsedNotebook:
     """Parse code cells (strings are numbered 1, 2, ...) into the units of one ParsedNotebook."""
+    parsed, problems = parse_code_cells(cells)
     units: list[SourceUnit] = []
-    problems: list[CellProblem] = []
-    known = set(dir(builtins))
     counts: dict[str, int] = {}
-    definitions: dict[str, str] = {}
-    for k, cell in enumerate(cells, start=1):
-        if isinstance(cell, str):
-            cell = _Cell(k, cell)
-        origin = f"{filename}, cell {cell.number}" if not filename.lower().endswith(".py") else filename
-        try:
-            text, tree = _parse_cell(cell.text)
-        except SyntaxError as exc:
-            line = exc.lineno + cell.first_line - 1 if exc.lineno else None
-            problems.append(CellProblem(cell.number, line, f"syntax error: {exc.msg}"))
-            continue
-        if tree is None:
-            continue
-        for node in tree.body:
-            if not _keep(node, known):
-                continue
-            names = _bound_names(node)
-            known.update(names)
-            for name in names:
-                counts[name] = counts.get(name, 0) + 1
-                definitions[name] = f"{origin}, line {node.lineno + cell.first_line - 1}" if origin == filename else origin
-            units.append(SourceUnit(
-                origin=origin,
-                line=_first_line(node) + cell.first_line - 1,
-                source=_segment(text, node),
-                future=_future_features(node),
-                defines=tuple(names),
-            ))
+    found: dict[str, str] = {}
+    python_file = filename.lower().endswith(".py")
+    for d in definitions(parsed, constants=True, links=False, homework=_HOMEWORK):
+        origin = filename if python_file else f"{filename}, cell {d.cell.number}"
+        for name in d.defines:
+            counts[name] = counts.get(name, 0) + 1
+            found[name] = f"{origin}, line {d.lineno}" if python_file else origin
+        units.append(SourceUnit(origin=origin, line=d.line, source=d.source, future=d.future, defines=d.defines))
     redefined = {n: c for n, c in counts.items() if c > 1}
-    return ParsedNotebook(stem, filename, True, None, tuple(units), tuple(problems), definitions,
+    return ParsedNotebook(stem, filename, True, None, tuple(units), tuple(problems), found,
                           redefined, _expected(stem))
 
 
 def _expected(stem: str) -> tuple[str, ...]:
     return functions_of_notebook(stem) if stem in NOTEBOOKS else ()
-
-
-class _Unreadable(Exception):
-    pass
-
-
-def _text(data: bytes | str) -> str:
-    if isinstance(data, str):
-        return data
-    if data == _TOO_BIG:
-        raise _Unreadable("the file is larger than the size limit")
-    if data.startswith(b"\x00encrypted"):
-        raise _Unreadable("the file is encrypted in the archive")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise _Unreadable(f"it is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-
-
-def _notebook_cells(data: bytes | str) -> list[_Cell]:
-    import nbformat  # imported here: only notebooks need it
-
-    text = _text(data)
-    try:
-        raw = json.loads(text)
-    except (ValueError, RecursionError) as exc:
-        raise _Unreadable(f"it is not valid JSON ({str(exc)[:120]})") from None
-    if not isinstance(raw, dict):
-        raise _Unreadable("it is JSON but not a notebook")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # missing cell ids and similar schema nits do not matter here
-            nb = nbformat.from_dict(raw)
-            nb = nbformat.convert(nb, 4) if nb.get("nbformat", 4) != 4 else nb
-            cells = nb.get("cells")
-    except Exception:  # noqa: BLE001 - nbformat raises many kinds; fall back to the raw JSON below
-        cells = raw.get("cells")
-    if not isinstance(cells, list):
-        raise _Unreadable("it is JSON but has no list of cells")
-    out = []
-    for k, cell in enumerate(cells, start=1):
-        if not isinstance(cell, dict) or cell.get("cell_type") != "code":
-            continue
-        source = cell.get("source", "")
-        if isinstance(source, list):
-            source = "".join(s for s in source if isinstance(s, str))
-        if isinstance(source, str):
-            out.append(_Cell(k, source))
-    return out
-
-
-# Cell magics whose body is ordinary Python that a notebook would run.
-_PYTHON_CELL_MAGICS = {"time", "timeit", "capture", "prun", "debug"}
-
-
-def _parse_cell(text: str) -> tuple[str, ast.Module | None]:
-    """The cell's Python text and its tree; (text, None) for a cell in another language."""
-    first = text.lstrip().split("\n", 1)[0]
-    if first.startswith("%%"):
-        magic = first[2:].split(maxsplit=1)[0] if first[2:].strip() else ""
-        if magic not in _PYTHON_CELL_MAGICS:
-            return text, None
-        # Blank the magic line rather than remove it, so line numbers stay those of the cell.
-        before, _, rest = text.partition(first)
-        text = before + rest
-    try:
-        return text, ast.parse(text)
-    except SyntaxError:
-        pass
-    cleaned = _strip_magics(text)
-    return cleaned, ast.parse(cleaned)  # a SyntaxError here is the cell's real error
-
-
-def _strip_magics(text: str) -> str:
-    try:
-        from IPython.core.inputtransformer2 import TransformerManager
-    except ImportError:
-        TransformerManager = None
-    if TransformerManager is not None:
-        try:
-            return TransformerManager().transform_cell(text)
-        except Exception:  # noqa: BLE001, S110 - fall through to the simple rule
-            pass
-    # Without IPython: shell escapes, line magics and help requests become `pass` at their indent.
-    out = []
-    for line in text.split("\n"):
-        body = line.lstrip()
-        if body.startswith(("%", "!")) or re.match(r"[\w.]+\s*=\s*[%!]", body) or (
-                body.rstrip().endswith("?") and not body.startswith("#")):
-            out.append(line[: len(line) - len(body)] + "pass")
-        else:
-            out.append(line)
-    return "\n".join(out)
-
-
-# ------------------------------------------------------------------------------------------------
-# which statements to keep
-
-# Calls that read files, draw or save: never run while loading definitions.
-_SIDE_EFFECT_CALLS = {
-    "load", "loadtxt", "genfromtxt", "fromfile", "imread", "open", "read", "read_csv", "save",
-    "savez", "savetxt", "savefig", "show", "figure", "subplots", "plot", "scatter", "imshow",
-    "system", "run", "Popen", "seed", "urlopen", "get", "post", "input", "print", "eval", "exec",
-    "compile", "__import__", "sleep",
-}
-
-
-def _keep(node: ast.stmt, known: set[str]) -> bool:
-    if isinstance(node, (ast.Import, ast.ImportFrom, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-        return True
-    if isinstance(node, ast.Assign):
-        return all(_is_name_target(t) for t in node.targets) and _is_simple(node.value, known)
-    if isinstance(node, ast.AnnAssign):
-        return isinstance(node.target, ast.Name) and (node.value is None or _is_simple(node.value, known))
-    if isinstance(node, ast.Try):
-        # The usual optional-import fallback: try: import cv2 / except ImportError: cv2 = None.
-        inner = node.body + node.orelse + node.finalbody + [s for h in node.handlers for s in h.body]
-        return all(isinstance(s, ast.Pass) or _keep(s, known | _bound_names(node)) for s in inner)
-    return False
-
-
-def _is_name_target(t: ast.expr) -> bool:
-    if isinstance(t, ast.Name):
-        return True
-    return isinstance(t, (ast.Tuple, ast.List)) and all(_is_name_target(e) for e in t.elts)
-
-
-def _is_simple(e: ast.expr, known: set[str]) -> bool:
-    """A cheap expression made of literals, known names and calls of library functions on them."""
-    if isinstance(e, ast.Constant):
-        return True
-    if isinstance(e, ast.Name):
-        return e.id in known
-    if isinstance(e, ast.Attribute):
-        return _is_simple(e.value, known)
-    if isinstance(e, (ast.Tuple, ast.List, ast.Set)):
-        return all(_is_simple(x, known) for x in e.elts)
-    if isinstance(e, ast.Dict):
-        return all(k is None or _is_simple(k, known) for k in e.keys) and all(_is_simple(v, known) for v in e.values)
-    if isinstance(e, ast.UnaryOp):
-        return _is_simple(e.operand, known)
-    if isinstance(e, ast.BinOp):
-        return _is_simple(e.left, known) and _is_simple(e.right, known)
-    if isinstance(e, (ast.BoolOp,)):
-        return all(_is_simple(v, known) for v in e.values)
-    if isinstance(e, ast.Compare):
-        return _is_simple(e.left, known) and all(_is_simple(c, known) for c in e.comparators)
-    if isinstance(e, ast.Lambda):
-        return all(_is_simple(d, known) for d in e.args.defaults + [d for d in e.args.kw_defaults if d])
-    if isinstance(e, ast.Call):
-        name = e.func.attr if isinstance(e.func, ast.Attribute) else getattr(e.func, "id", None)
-        return (name is not None and name not in _SIDE_EFFECT_CALLS and _is_simple(e.func, known)
-                and all(_is_simple(a.value if isinstance(a, ast.Starred) else a, known) for a in e.args)
-                and all(_is_simple(k.value, known) for k in e.keywords))
-    return False
-
-
-def _bound_names(node: ast.stmt) -> set[str]:
-    if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-        return {node.name}
-    if isinstance(node, (ast.Import, ast.ImportFrom)):
-        return {(a.asname or a.name).split(".")[0] for a in node.names if a.name != "*"}
-    if isinstance(node, ast.Assign):
-        return {n.id for t in node.targets for n in ast.walk(t) if isinstance(n, ast.Name)}
-    if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
-        return {node.target.id}
-    if isinstance(node, ast.Try):
-        inner = node.body + node.orelse + node.finalbody + [s for h in node.handlers for s in h.body]
-        return set().union(*(_bound_names(s) for s in inner)) if inner else set()
-    return set()
-
-
-def _first_line(node: ast.stmt) -> int:
-    decorators = getattr(node, "decorator_list", [])
-    return min([node.lineno] + [d.lineno for d in decorators])
-
-
-def _segment(text: str, node: ast.stmt) -> str:
-    if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef, ast.Try)):
-        # A compound statement owns whole lines (nothing can precede it on its first line or
-        # follow it on its last), and whole lines keep its decorators.
-        lines = text.split("\n")
-        return "\n".join(lines[_first_line(node) - 1: node.end_lineno])
-    return ast.get_source_segment(text, node) or ast.unparse(node)
-
-
-def _future_features(node: ast.stmt) -> tuple[str, ...]:
-    if isinstance(node, ast.ImportFrom) and node.module == "__future__":
-        return tuple(a.name for a in node.names)
-    return ()
-

@@ -23,7 +23,8 @@ from pathlib import Path
 
 import nbformat
 
-from core.manifest import NOTEBOOKS, functions_of_notebook
+from core.manifest import NOTEBOOKS, QUESTIONS, functions_of_notebook
+from core.notebook import Cell, definitions, notebook_stem, parse_cells
 
 __all__ = [
     "NotebookInfo",
@@ -38,6 +39,7 @@ __all__ = [
 # A helper module beside the notebooks is welcome, a data file or a stray video is not.
 HELPER_SUFFIXES = (".py",)
 MAX_HELPER_KB = 256
+_HOMEWORK = frozenset(f for q in QUESTIONS for f in q.functions)
 NAME_PLACEHOLDERS = {"", "your name", "your name here", "firstname lastname", "first last"}
 
 
@@ -188,14 +190,18 @@ def select_notebooks(source, *, argname: str = "notebooks", allow_helpers: bool 
     """
     paths, from_folder = _paths(source, argname)
     by_stem: dict[str, Path] = {}
+    renamed: dict[str, list[Path]] = {}
     others: list[Path] = []
     sel = Selection(notebooks=[])
     for p in paths:
         if p.suffix == ".ipynb":
+            stem = stem_of(p)
             if p.stem in NOTEBOOKS:
                 if p.stem in by_stem:
                     raise ValueError(f"{argname}: expected one notebook per stem, got {by_stem[p.stem]} and {p}")
                 by_stem[p.stem] = p
+            elif stem is not None:  # renamed by Colab or a browser; its metadata says which it is
+                renamed.setdefault(stem, []).append(p)
             elif from_folder:
                 hint = _near_miss(p.stem)
                 why = (f"not a homework notebook name; rename it {hint}.ipynb if it is your answer"
@@ -213,12 +219,31 @@ def select_notebooks(source, *, argname: str = "notebooks", allow_helpers: bool 
             # A data file sitting in the folder is not worth a word; one the student named is.
             size = p.stat().st_size / 2**20
             sel.skipped.append((p, f"not a notebook or helper module ({size:.1f} MB)"))
+    for stem, copies in renamed.items():
+        # The exact name wins; else the most recently saved copy.
+        copies.sort(key=lambda q: (q.stat().st_mtime, q.name), reverse=True)
+        if stem not in by_stem:
+            by_stem[stem] = copies.pop(0)
+        sel.skipped += [(q, f"another notebook for {stem}, {by_stem[stem].name}, is used") for q in copies]
     sel.notebooks = [by_stem[s] for s in NOTEBOOKS if s in by_stem] + others
     if not sel.notebooks:
         found = ", ".join(p.name for p in paths[:8]) or "nothing"
         raise ValueError(f"{argname}: expected homework notebooks ({', '.join(s + '.ipynb' for s in NOTEBOOKS)}), "
                          f"found {found}")
     return sel
+
+
+def stem_of(path: Path) -> str | None:
+    """The homework stem of a notebook file: its name when that is ``<stem>.ipynb``, else the stem
+    in its metadata (a copy named "Copy of q2_eightpoint.ipynb" by Colab), else None."""
+    path = Path(path)
+    if path.stem in NOTEBOOKS:
+        return path.stem
+    try:
+        stem = notebook_stem(path.read_bytes())
+    except OSError:
+        return None
+    return stem if stem in NOTEBOOKS else None
 
 
 def _is_stub(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
@@ -237,18 +262,9 @@ def _is_stub(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
                                            and s.value.value is Ellipsis) for s in body)
 
 
-def _python_source(cell_source: str) -> str:
-    """Cell source with IPython syntax (magics, ``!cmd``, ``x?``) turned into plain Python."""
-    try:
-        from IPython.core.inputtransformer2 import TransformerManager
-    except ImportError:  # no IPython: blank out the lines ast would choke on
-        return "\n".join("" if line.lstrip().startswith(("%", "!")) else line
-                         for line in cell_source.splitlines())
-    return TransformerManager().transform_cell(cell_source)
-
-
-def _scan_cell(tree: ast.Module, info: NotebookInfo) -> None:
-    for node in tree.body:
+def _scan(defs, info: NotebookInfo) -> None:
+    for d in defs:
+        node = d.node
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             # A later definition replaces an earlier one, as it would when the cells run.
             if _is_stub(node):
@@ -257,24 +273,15 @@ def _scan_cell(tree: ast.Module, info: NotebookInfo) -> None:
             else:
                 info.implemented.add(node.name)
                 info.stubs.discard(node.name)
-        elif isinstance(node, ast.ClassDef):
-            info.implemented.add(node.name)
-        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
-            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
-            names = [t.id for t in targets if isinstance(t, ast.Name)]
-            value = node.value
-            if "STUDENT_NAME" in names and isinstance(value, ast.Constant) and isinstance(value.value, str):
-                if value.value.strip().lower() not in NAME_PLACEHOLDERS:
-                    info.student_name = value.value.strip()
-            elif value is not None:
-                for n in names:  # e.g. ``triangulate = my_triangulate``
-                    info.implemented.add(n)
-                    info.stubs.discard(n)
-        elif isinstance(node, (ast.Import, ast.ImportFrom)):
-            for alias in node.names:
-                name = alias.asname or alias.name.split(".")[0]
-                info.implemented.add(name)
-                info.stubs.discard(name)
+            continue
+        value = getattr(node, "value", None)
+        if "STUDENT_NAME" in d.defines and isinstance(value, ast.Constant) and isinstance(value.value, str):
+            if value.value.strip().lower() not in NAME_PLACEHOLDERS:
+                info.student_name = value.value.strip()
+            continue
+        for n in d.defines:  # imports, classes, ``triangulate = my_triangulate``, try-import blocks
+            info.implemented.add(n)
+            info.stubs.discard(n)
 
 
 def inspect_notebook(path) -> NotebookInfo:
@@ -291,22 +298,18 @@ def inspect_notebook(path) -> NotebookInfo:
         ``nb`` is None and ``problems`` says why when the file is not a readable notebook.
     """
     path = Path(path)
-    info = NotebookInfo(path=path, stem=path.stem if path.stem in NOTEBOOKS else None, nb=None)
+    info = NotebookInfo(path=path, stem=stem_of(path), nb=None)
     try:
         info.nb = nbformat.read(path, as_version=4)
     except Exception as exc:  # bad JSON, unknown nbformat, not a notebook at all
         info.problems.append(f"{path.name}: not a readable notebook ({type(exc).__name__}: {exc})")
         return info
-    for index, cell in enumerate(info.nb.cells, start=1):
-        if cell.cell_type != "code" or not cell.source.strip():
-            continue
-        try:
-            tree = ast.parse(_python_source(cell.source))
-        except SyntaxError as exc:
-            info.problems.append(f"{path.name}: code cell {index} has a syntax error "
-                                 f"(line {exc.lineno}: {exc.msg}); its definitions were not checked")
-            continue
-        _scan_cell(tree, info)
+    parsed, problems = parse_cells(Cell(k, c.source) for k, c in enumerate(info.nb.cells, start=1)
+                                   if c.cell_type == "code")
+    info.problems += [f"{path.name}: code cell {p.cell} has a syntax error (line {p.line}: "
+                      f"{p.message.removeprefix('syntax error: ')}); its definitions were not checked"
+                      for p in problems]
+    _scan(definitions(parsed, constants=True, links=True, homework=_HOMEWORK), info)
     return info
 
 
@@ -369,7 +372,9 @@ def build_bundle(folder_or_notebooks, out_zip, *, max_mb: float = 50.0) -> Bundl
     included: list[str] = []
     with zipfile.ZipFile(out_zip, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for p in sel.notebooks + sel.extras:
-            arcname = _safe_arcname(p.name)
+            # A renamed homework notebook goes in under its own name.
+            stem = stem_of(p) if p.suffix == ".ipynb" else None
+            arcname = f"{stem}.ipynb" if stem else _safe_arcname(p.name)
             if arcname in included:
                 sel.skipped.append((p, f"another file is already called {arcname} in the zip"))
                 continue

@@ -23,6 +23,7 @@ from pathlib import Path
 import nbformat
 
 from core.manifest import NOTEBOOKS, QUESTIONS
+from core.notebook import Cell, code_cells, parse_cells, read_text
 
 __all__ = ["RELEASE_TOP", "STUDENT_KIT_FILES", "leaks", "reference_bodies", "write_release"]
 
@@ -30,7 +31,7 @@ KIT_ROOT = Path(__file__).resolve().parents[1]
 
 # The kit/ modules students run (python -m kit pdf); the rest of kit/ is for instructors and
 # reads solutions/.
-STUDENT_KIT_FILES = ("__init__.py", "__main__.py", "manifest.py", "bundle.py", "pdf.py", "pdf_assets")
+STUDENT_KIT_FILES = ("__init__.py", "__main__.py", "bundle.py", "pdf.py", "pdf_assets")
 # Everything the release writes at its top level (and all that --force may replace).
 RELEASE_TOP = ("core", "starter", "scenes", "data", "kit", "notebooks", "requirements.txt", "pyproject.toml",
                "README.md", ".gitignore")
@@ -145,13 +146,6 @@ def _dump_body(stmts) -> str:
     return "\n".join(ast.dump(s) for s in stmts)
 
 
-def _python_sources(path: Path) -> list[str]:
-    if path.suffix == ".py":
-        return [path.read_text(encoding="utf-8")]
-    nb = nbformat.read(path, as_version=4)
-    return [c.source for c in nb.cells if c.cell_type == "code"]
-
-
 def leaks(folder, solutions_dir: Path | None = None) -> list[str]:
     """Problems with the files under ``folder``: imports of ``solutions`` and reference bodies.
 
@@ -166,19 +160,18 @@ def leaks(folder, solutions_dir: Path | None = None) -> list[str]:
         if path.suffix not in (".py", ".ipynb") or not path.is_file():
             continue
         rel = path.relative_to(folder)
+        notebook = path.suffix == ".ipynb"
         try:
-            sources = _python_sources(path)
-        except Exception as exc:  # noqa: BLE001 - any unreadable notebook is reported, not fatal
+            data = path.read_bytes()
+            parsed, bad = parse_cells(code_cells(data) if notebook else [Cell(1, read_text(data))])
+        except (OSError, ValueError) as exc:  # an unreadable file is reported, not fatal
             problems.append(f"{rel}: not readable ({exc})")
             continue
-        for k, text in enumerate(sources, start=1):
-            where = f"{rel}" + (f", code cell {k}" if path.suffix == ".ipynb" else "")
-            try:
-                tree = ast.parse(_strip_magics(text))
-            except SyntaxError as exc:
-                problems.append(f"{where}: does not parse ({exc.msg}), so it could not be checked")
-                continue
-            for node in ast.walk(tree):
+        problems += [f"{rel}" + (f", cell {p.cell}" if notebook else "")
+                     + f": does not parse ({p.message}), so it could not be checked" for p in bad]
+        for pc in parsed:
+            where = f"{rel}" + (f", cell {pc.cell.number}" if notebook else "")
+            for node in ast.walk(pc.tree):
                 if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "solutions" for a in node.names):
                     problems.append(f"{where}: imports solutions")
                 elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "solutions" \
@@ -194,10 +187,6 @@ def leaks(folder, solutions_dir: Path | None = None) -> list[str]:
                     if hit:
                         problems.append(f"{where}: {node.name} has the body of the reference {hit}")
     return problems
-
-
-def _strip_magics(text: str) -> str:
-    return "\n".join("" if line.lstrip().startswith(("%", "!")) else line for line in text.splitlines())
 
 
 def _student_notebooks(notebooks_dir: Path) -> list[Path]:

@@ -7,11 +7,13 @@ Problems 3 to 5 need functions written in earlier notebooks (``eightpoint`` in Q
 >>> findM2, triangulate = from_notebook("q3_metric_reconstruction.ipynb",
 ...                                     "findM2", "triangulate")           # doctest: +SKIP
 
-Only the definitions of that notebook run: its top-level ``import`` statements, ``def`` and
-``class`` blocks, and ``name = from_notebook(...)`` lines (so chains work).  Figures, data
-loading and every other statement are skipped, so loading is quick and has no side effects.
+Only the definitions of that notebook run (:func:`core.notebook.definitions`, the rule set the
+grader uses too): its top-level ``import`` statements, ``def`` and ``class`` blocks, ``try``
+blocks of those, and ``name = from_notebook(...)`` lines (so chains work).  Constants, figures,
+data loading and every other statement are skipped, so loading is quick and has no side effects.
 The notebook is looked up beside the running one (the current folder), so the answer key's
-notebooks load the answer key's siblings and yours load yours.
+notebooks load the answer key's siblings and yours load yours; a copy that Colab or a browser
+renamed ("Copy of q2_eightpoint.ipynb") is found by the stem in its metadata.
 
 :func:`try_run` calls a function and turns ``NotImplementedError`` into a one-line note, so a
 notebook whose stubs are not written yet still runs from top to bottom.
@@ -19,13 +21,18 @@ notebook whose stubs are not written yet still runs from top to bottom.
 
 from __future__ import annotations
 
+import __future__
 import ast
 import builtins
 import linecache
 import os
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from core.manifest import NOTEBOOKS, QUESTIONS
+from core.notebook import NotebookUnreadable, definitions, find_notebook, python_cells
 
 __all__ = ["from_notebook", "notebook_definitions", "try_run"]
 
@@ -44,6 +51,8 @@ def _resolve(notebook, folder) -> Path:
             # A from_notebook line inside a notebook being loaded means that notebook's folder.
             folder = _LOADING[-1].parent if _LOADING else Path.cwd()
         path = Path(folder) / path
+    if not path.is_file() and path.stem in NOTEBOOKS:
+        path = find_notebook(path.parent, path.stem) or path
     if not path.is_file():
         raise FileNotFoundError(
             f"notebook: {path.name} not found in {path.parent}. Keep your homework notebooks in one "
@@ -52,29 +61,7 @@ def _resolve(notebook, folder) -> Path:
     return path.resolve()
 
 
-def _python_source(cell: str) -> str:
-    # Magics and shell escapes (%matplotlib, !pip) are IPython syntax, not Python.
-    try:
-        from IPython.core.inputtransformer2 import TransformerManager
-    except ImportError:
-        return "\n".join("" if line.lstrip().startswith(("%", "!")) else line for line in cell.splitlines())
-    return TransformerManager().transform_cell(cell)
-
-
-def _is_from_notebook_call(node: ast.expr) -> bool:
-    if not isinstance(node, ast.Call):
-        return False
-    f = node.func
-    return (isinstance(f, ast.Name) and f.id == "from_notebook") or \
-        (isinstance(f, ast.Attribute) and f.attr == "from_notebook")
-
-
-def _kept(node: ast.stmt) -> bool:
-    if isinstance(node, ast.ImportFrom) and node.module == "__future__":
-        return False  # only legal at the top of a file; the definitions do not need it
-    if isinstance(node, (ast.Import, ast.ImportFrom, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-        return True
-    return isinstance(node, ast.Assign) and _is_from_notebook_call(node.value)
+_HOMEWORK = frozenset(f for q in QUESTIONS for f in q.functions)
 
 
 def notebook_definitions(notebook, folder=None) -> list[tuple[str, ast.stmt, str]]:
@@ -92,28 +79,16 @@ def notebook_definitions(notebook, folder=None) -> list[tuple[str, ast.stmt, str
         ``origin`` is "<name>.ipynb, cell k" (k counts all cells from 1), ``statement`` the
         parsed top-level statement and ``cell_source`` the Python text of its cell.
     """
-    import nbformat
-
     path = _resolve(notebook, folder)
     try:
-        nb = nbformat.read(path, as_version=4)
-    except Exception as exc:  # noqa: BLE001 - nbformat raises many kinds for a bad file
+        parsed, problems = python_cells(path.read_bytes())
+    except (NotebookUnreadable, OSError) as exc:
         raise ValueError(f"notebook: {path.name} is not a readable notebook ({exc})") from None
-    out = []
-    for k, cell in enumerate(nb.cells, start=1):
-        if cell.cell_type != "code" or not cell.source.strip():
-            continue
-        text = _python_source(cell.source)
-        try:
-            tree = ast.parse(text)
-        except SyntaxError as exc:
-            import warnings
-
-            warnings.warn(f"{path.name}, cell {k}: syntax error (line {exc.lineno}: {exc.msg}); "
-                          "its definitions are not loaded", stacklevel=3)
-            continue
-        out += [(f"{path.name}, cell {k}", node, text) for node in tree.body if _kept(node)]
-    return out
+    for p in problems:
+        warnings.warn(f"{path.name}, cell {p.cell}: {p.message} (line {p.line}); "
+                      "its definitions are not loaded", stacklevel=3)
+    return [(f"{path.name}, cell {d.cell.number}", d.node, d.cell_text)
+            for d in definitions(parsed, constants=False, links=True, homework=_HOMEWORK)]
 
 
 def from_notebook(notebook, *names: str, folder=None):
@@ -157,11 +132,16 @@ def from_notebook(notebook, *names: str, folder=None):
         raise ImportError(f"notebook: notebooks load each other in a cycle ({chain})")
     namespace: dict[str, Any] = {"__name__": f"notebook_{path.stem}", "__builtins__": builtins}
     _LOADING.append(path)
+    flags = 0
     try:
         for origin, node, text in notebook_definitions(path):
             # Registered so that a traceback through the loaded code shows its lines.
             linecache.cache[origin] = (len(text), None, text.splitlines(True), origin)
-            code = compile(ast.Module(body=[node], type_ignores=[]), origin, "exec")
+            if isinstance(node, ast.ImportFrom) and node.module == "__future__":
+                flags |= sum(getattr(__future__, a.name).compiler_flag for a in node.names
+                             if hasattr(__future__, a.name))
+            code = compile(ast.Module(body=[node], type_ignores=[]), origin, "exec", flags=flags,
+                           dont_inherit=True)
             try:
                 exec(code, namespace)  # noqa: S102 - the student's own definitions, in their own kernel
             except Exception as exc:

@@ -63,7 +63,7 @@ def test_later_definition_wins_and_is_last_in_the_units():
     assert nb.definitions["eightpoint"] == "q2_eightpoint.ipynb, cell 4"
     last = [u for u in nb.units if "eightpoint" in u.defines][-1]
     assert "second" in last.source and last.origin.endswith("cell 4")
-    assert any("defined 2 times" in d for d in nb.diagnostics())
+    assert any("defined 2 times" in d for d in map(str, nb.notes()))
 
 
 def test_syntax_error_loses_only_its_cell():
@@ -75,14 +75,14 @@ def test_syntax_error_loses_only_its_cell():
     assert nb.syntax_errors[0].line == 1
     assert set(nb.definitions) == {"essentialMatrix", "findM2"}
     assert nb.missing == ("triangulate",)
-    assert any("cell 2" in d and "syntax error" in d for d in nb.diagnostics())
+    assert any("cell 2" in d and "syntax error" in d for d in map(str, nb.notes()))
 
 
 def test_missing_function_is_reported():
     nb = parse_cells(["def essentialMatrix(F, K1, K2):\n    return F\n"],
                      stem="q3_metric_reconstruction", filename="q3_metric_reconstruction.ipynb")
     assert set(nb.missing) == set(functions_of_notebook("q3_metric_reconstruction")) - {"essentialMatrix"}
-    assert any("findM2 is not defined" in d for d in nb.diagnostics())
+    assert any("findM2 is not defined" in d for d in map(str, nb.notes()))
 
 
 def test_only_definitions_imports_and_simple_constants_are_kept():
@@ -151,8 +151,9 @@ def test_invalid_json_notebook_is_unreadable_and_the_others_still_count(tmp_path
     assert not sub.notebooks["q2_eightpoint"].readable
     assert "not valid JSON" in sub.notebooks["q2_eightpoint"].error
     assert "findM2" in sub.notebooks["q3_metric_reconstruction"].definitions
-    assert any("q2_eightpoint.ipynb could not be read" in d for d in sub.diagnostics())
-    assert sub.missing_functions("q2_eightpoint") == ("eightpoint",)
+    assert any("q2_eightpoint.ipynb could not be read" in d for d in map(str, sub.notes()))
+    assert sub.where_defined("eightpoint", "q2_eightpoint") is None
+    assert [n.kind for n in sub.notes() if n.stem == "q2_eightpoint"] == ["unreadable"]
 
 
 def test_zip_with_nested_folders_and_tolerant_names(tmp_path):
@@ -169,7 +170,7 @@ def test_zip_with_nested_folders_and_tolerant_names(tmp_path):
     assert sub.notebooks["q2_eightpoint"].filename == "andrew/hw4/Q2 Eightpoint (1).ipynb"
     assert "second" in sub.notebooks["q2_eightpoint"].units[-1].source
     assert "triangulate" in sub.notebooks["q3_metric_reconstruction"].definitions
-    assert any("q20_notes" in i for i in sub.ignored)
+    assert any("q20_notes" in n.file and n.kind == "not_used" for n in sub.ignored)
     assert set(sub.missing_notebooks) == set(NOTEBOOKS) - {"q2_eightpoint", "q3_metric_reconstruction"}
 
 
@@ -180,7 +181,7 @@ def test_exact_name_is_preferred_over_a_copy(tmp_path):
     })
     sub = load_submission(root)
     assert sub.notebooks["q2_eightpoint"].filename == "q2_eightpoint.ipynb"
-    assert any("Copy of q2_eightpoint.ipynb" in i for i in sub.ignored)
+    assert any("Copy of q2_eightpoint.ipynb" in str(n) for n in sub.ignored)
 
 
 @pytest.mark.parametrize("evil", ["../evil.py", "/etc/q2_evil.py", "ok/../../q2_evil.py", "C:/q2_evil.py"])
@@ -217,17 +218,43 @@ def test_not_a_submission(tmp_path):
         load_submission(tmp_path / "notes.txt")
 
 
-def test_units_for_borrows_from_other_notebooks_but_own_definitions_win(tmp_path):
+def test_units_borrow_from_other_notebooks_but_own_definitions_win(tmp_path):
     root = write_folder(tmp_path / "sub", {
         "q2_eightpoint.ipynb": notebook_bytes("def helper():\n    return 'q2'\n"),
         "q3_metric_reconstruction.ipynb": notebook_bytes(
-            "def helper():\n    return 'q3'\n", "def eightpoint(a, b, c):\n    return 'in q3'\n"),
+            "def helper():\n    return 'q3'\n", "def eightpoint(a, b, c):\n    return 'in q3'\n",
+            "def triangulate(C1, pts1, C2, pts2):\n    return 'q3'\n"),
+        "q4_temple_3d.ipynb": notebook_bytes("def triangulate(C1, pts1, C2, pts2):\n    return 'q4'\n"),
     })
     sub = load_submission(root)
-    units = sub.units_for("q2_eightpoint")
-    assert [u.origin.split(",")[0] for u in units][-1] == "q2_eightpoint.ipynb"
+    units = sub.units()
+    # q2's helper first, then q3's (manifest order); each notebook's own functions again at the end.
+    assert [u.origin.split(",")[0] for u in units if "helper" in u.defines] == [
+        "q2_eightpoint.ipynb", "q3_metric_reconstruction.ipynb"]
+    assert [u for u in units if "triangulate" in u.defines][-1].origin.startswith("q3_metric_reconstruction")
     assert sub.where_defined("eightpoint", "q2_eightpoint").startswith("q3_metric_reconstruction.ipynb")
-    assert sub.missing_functions("q2_eightpoint") == ()
-    assert all(u.origin.startswith("q2") for u in sub.units_for("q2_eightpoint", borrow=False))
-    with pytest.raises(ValueError, match="stem"):
-        sub.units_for("q9_nothing")
+    borrowed = [n for n in sub.notes() if n.kind == "borrowed"]
+    assert [(n.name, n.stem) for n in borrowed] == [("eightpoint", "q2_eightpoint")]
+    assert str(borrowed[0]) == "eightpoint was found in q3_metric_reconstruction.ipynb, cell 2 and is used from there."
+
+
+def test_units_leave_out_the_notebooks_self_checks_runs_and_links():
+    cells = ["from starter.notebook_import import from_notebook, try_run\n"
+             "from starter.checks import check_findM2\nimport numpy as np\n",
+             "eightpoint = from_notebook('q2_eightpoint.ipynb', 'eightpoint')\n",
+             "def findM2(F, pts1, pts2, intrinsics):\n    return 1\n",
+             "M1 = np.eye(3)\nreport = check_findM2(findM2)\nF = try_run(eightpoint, M1, M1, 640)\n"
+             "best = findM2(M1, M1, M1, M1)\nLIMIT = np.sqrt(2)\n"]
+    nb = parse_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
+    kept = set().union(*(u.defines for u in nb.units))
+    assert kept == {"from_notebook", "try_run", "check_findM2", "np", "findM2", "M1", "LIMIT"}
+    # A function fetched with from_notebook is not "found" in this notebook: the grader loads q2 itself.
+    assert "eightpoint" not in nb.definitions
+
+
+def test_a_renamed_notebook_is_recognised_by_its_metadata(tmp_path):
+    nb = nbformat.v4.new_notebook(cells=[new_code_cell(EIGHTPOINT_V2)])
+    nb.metadata["hw4_kit"] = {"stem": "q2_eightpoint", "variant": "student"}
+    root = write_folder(tmp_path / "sub", {"Untitled (1).ipynb": nbformat.writes(nb).encode()})
+    sub = load_submission(root)
+    assert sub.notebooks["q2_eightpoint"].filename == "Untitled (1).ipynb"
