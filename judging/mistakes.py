@@ -3,7 +3,7 @@
 Each function takes what a student's code returned (and what the caller knows to be true),
 and returns a :class:`Mistake` (or a list of them) when the numbers carry the signature of a
 known mistake, ``None`` (or ``[]``) otherwise.  Nothing here calls student code or prints, so
-the public checks and the autograder's feedback share one catalogue.
+the public checks and the hidden tests share one catalogue (through judging/<concept>.py).
 
 Conventions: a pixel is (x, y) = (column, row); F maps a point x1 of image 1 to the line
 F x1 of image 2 (x2^T F x1 = 0); M = [R | t] (3x4) maps world to camera coordinates;
@@ -17,7 +17,7 @@ from itertools import combinations
 
 import numpy as np
 
-from starter.epipolar import epipolar_distances
+from core.geometry import depths, skew, symmetric_epipolar_distances
 from starter.pose import camera2
 
 __all__ = [
@@ -123,8 +123,8 @@ KNOWN_MISTAKES: dict[str, tuple[str, str]] = {
          "x0 = [w_init, r2, t2] and unpack the optimiser's result (res.x), not x0.")),
     "ba_scale_collapse": (
         "BA scale collapse",
-        ("points and t can shrink together without changing any projection: fix |t| (or keep the gauge "
-         "otherwise) so that the scene cannot collapse towards t = 0.")),
+        ("points and t shrank together towards 0 and the result is no longer a reconstruction: any "
+         "scale is fine, but a vanishing one is degenerate; keep the optimiser away from t = 0.")),
     "threshold_inclusive": (
         "detections at exactly Thres used",
         "use a detection only when its confidence is strictly greater than Thres (>, not >=)."),
@@ -162,18 +162,14 @@ def same_up_to_scale(A, B, rtol: float = 1e-6) -> bool:
     return min(np.abs(a - b).max(), np.abs(a + b).max()) <= rtol
 
 
-def _max_distance(F, pts1, pts2) -> float:
-    if F is None or not np.all(np.isfinite(F)) or not np.any(F):
+def epipolar_statistic(F, pts1, pts2, statistic: str = "max") -> float:
+    """The largest ("max") or root-mean-square ("rms") symmetric epipolar distance, pixels; inf for no F."""
+    if statistic not in ("max", "rms"):
+        raise ValueError(f"statistic: expected 'max' or 'rms', got {statistic!r}")
+    d = symmetric_epipolar_distances(F, pts1, pts2)
+    if len(d) == 0:
         return np.inf
-    d = epipolar_distances(F, pts1, pts2)
-    return float(np.nanmax(np.where(np.isfinite(d), d, np.inf)))
-
-
-def _mean_distance(F, pts1, pts2) -> float:
-    if F is None or not np.all(np.isfinite(F)) or not np.any(F):
-        return np.inf
-    d = epipolar_distances(F, pts1, pts2)
-    return float(np.mean(np.where(np.isfinite(d), d, np.inf)))
+    return float(np.max(d)) if statistic == "max" else float(np.sqrt(np.mean(d ** 2)))
 
 
 def _rotation_angle_deg(Ra, Rb) -> float:
@@ -186,12 +182,6 @@ def _angle_deg(u, v) -> float:
     if nu == 0 or nv == 0:
         return 180.0
     return float(np.degrees(np.arccos(np.clip(np.dot(u, v) / (nu * nv), -1.0, 1.0))))
-
-
-def _project(C, w) -> np.ndarray:
-    h = np.asarray(w, float) @ C[:, :3].T + C[:, 3]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return h[:, :2] / h[:, 2:]
 
 
 # ----------------------------------------------------------------------------- Q2: F
@@ -218,8 +208,8 @@ def fundamental_mistakes(F, pts1, pts2, M, tol_px: float = 0.01, statistic: str 
     F : (3, 3) the student's fundamental matrix.
     pts1, pts2 : (N, 2) matches, pixels (x, y); exact (noise-free) ones make the verdict sharp.
     M : the scale the student was given (max of width and height).
-    tol_px : F fits when the ``statistic`` ("max" or "mean") of the distances of the x2 to
-        their lines F x1 is at most this.  For noisy matches use "mean" and a few pixels; a
+    tol_px : F fits when the ``statistic`` ("max" or "rms") of the symmetric epipolar distances
+        (core.geometry) is at most this.  For noisy matches use "rms" and the fit's goal; a
         repair must then also beat F itself.
 
     Returns
@@ -228,12 +218,12 @@ def fundamental_mistakes(F, pts1, pts2, M, tol_px: float = 0.01, statistic: str 
     (one, or a pair) whose undoing makes F fit.  Transposition, missing or inverted unscaling
     and swapped x/y are tried alone, then in pairs.
     """
-    if statistic not in ("max", "mean"):
-        raise ValueError(f"statistic: expected 'max' or 'mean', got {statistic!r}")
+    if statistic not in ("max", "rms"):
+        raise ValueError(f"statistic: expected 'max' or 'rms', got {statistic!r}")
     F = np.asarray(F, dtype=float)
 
     def dist(G):
-        return _max_distance(G, pts1, pts2) if statistic == "max" else _mean_distance(G, pts1, pts2)
+        return epipolar_statistic(G, pts1, pts2, statistic)
 
     own = dist(F) if F.shape == (3, 3) else 0.0
     if F.shape != (3, 3) or own <= tol_px:
@@ -248,7 +238,7 @@ def fundamental_mistakes(F, pts1, pts2, M, tol_px: float = 0.01, statistic: str 
                 G = repairs[c](G)
             d = dist(G)
             if d <= tol_px and d < own:
-                ev = (f"undoing it, the {statistic} distance of the matches to their epipolar lines is "
+                ev = (f"undoing it, the {statistic} epipolar distance of the matches is "
                       f"{d:.2g} px instead of {own:.3g} px")
                 return [mistake(c, ev) for c in codes]
     return []
@@ -375,8 +365,8 @@ def points_behind_cameras(w, M1, M2, max_share: float = 0.5) -> Mistake | None:
     w = np.asarray(w, dtype=float)
     if w.ndim != 2 or w.shape[1] != 3 or len(w) == 0:
         return None
-    z1 = w @ np.asarray(M1, float)[2, :3] + M1[2, 3]
-    z2 = w @ np.asarray(M2, float)[2, :3] + M2[2, 3]
+    with np.errstate(invalid="ignore"):
+        z1, z2 = depths(M1, w), depths(M2, w)
     behind = ~((z1 > 0) & (z2 > 0))
     if behind.mean() > max_share:
         return mistake("points_behind", f"{int(behind.sum())} of {len(w)} points have a negative depth")
@@ -393,8 +383,7 @@ def wrong_camera(M2, M2_true, tol_deg: float = 1.0) -> Mistake | None:
     if M2.shape != (3, 4) or not np.all(np.isfinite(M2)):
         return None
     R, t = M2_true[:, :3], M2_true[:, 3]
-    tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
-    cands = camera2(tx @ R)
+    cands = camera2(skew(t) @ R)
     errs = [max(_rotation_angle_deg(M2[:, :3], cands[:, :3, i]), _angle_deg(M2[:, 3], cands[:, 3, i]))
             for i in range(cands.shape[2])]
     truth = [max(_rotation_angle_deg(R, cands[:, :3, i]), _angle_deg(t, cands[:, 3, i]))

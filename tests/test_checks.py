@@ -27,7 +27,7 @@ from starter.checks import (
     check_rodriguesResidual,
     check_triangulate,
 )
-from starter.checks import mistakes as mk
+from judging import mistakes as mk
 from starter.checks._scenes import two_view
 from starter.checks.multiview import DESIGN_CONFIDENCE, THRES
 from starter.checks.report import DISCLAIMER, NOT_IMPLEMENTED, call
@@ -303,14 +303,29 @@ def ba_not_decreasing(K1, M1, p1, K2, M2_init, p2, w_init):
     return M2_init, w_init, o1, o1  # the optimiser's result never unpacked
 
 
-def ba_collapsing(K1, M1, p1, K2, M2_init, p2, w_init):
+def _least_squares_ba(K1, M1, p1, K2, M2_init, p2, w_init, scale=1.0):
+    """A plain scipy least_squares on the handout's residuals (no gauge fixed), the result scaled by ``scale``."""
     n = len(p1)
     x0 = np.concatenate([np.ravel(w_init), invRodrigues(M2_init[:, :3]), M2_init[:, 3]])
     x = scipy.optimize.least_squares(lambda x: ref.rodriguesResidual(K1, M1, p1, K2, p2, x), x0, method="lm").x
-    s = 1e-3  # shrinking points and t together leaves every projection as it was
-    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), s * x[3 * n + 3:, None]])
-    w = s * x[:3 * n].reshape(n, 3)
+    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), scale * x[3 * n + 3:, None]])
+    w = scale * x[:3 * n].reshape(n, 3)
     return M2, w, _error(K1, M1, p1, K2, p2, M2_init, w_init), _error(K1, M1, p1, K2, p2, M2, w)
+
+
+def ba_collapsing(K1, M1, p1, K2, M2_init, p2, w_init):
+    # t driven to (almost) 0 while the points stay: camera 2 sits on camera 1, the scene is gone.
+    M2 = M2_init.copy()
+    M2[:, 3] *= 1e-9
+    return M2, w_init, _error(K1, M1, p1, K2, p2, M2_init, w_init), _error(K1, M1, p1, K2, p2, M2, w_init)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-3, 10.0])
+def test_bundle_adjustment_in_any_gauge_passes(scale, no_data):
+    # The handout fixes no scale: a plain least_squares, and the same result shrunk or grown
+    # (points and t together), are right answers.
+    report = check_bundleAdjustment(lambda *a: _least_squares_ba(*a, scale=scale), root=no_data, verbose=False)
+    assert report.passed and report.mistakes == [], report.text()
 
 
 @pytest.mark.parametrize("code, variant", [("ba_not_decreasing", ba_not_decreasing),
@@ -335,7 +350,12 @@ def test_threshold_mistakes_are_named(code, shift, no_data):
 
 @pytest.fixture(scope="module")
 def tv():
-    return two_view()
+    """The public pair's truths (core.geometry.CameraPair) with its M, as plain attributes."""
+    from types import SimpleNamespace
+
+    v = two_view()
+    p = v.pair
+    return SimpleNamespace(K1=p.K1, K2=p.K2, M1=p.M1, M2=p.M2, X=p.X, pts1=p.pts1, pts2=p.pts2, E=p.E, F=p.F, M=v.M)
 
 
 def test_fundamental_mistakes_undo_each_known_mistake(tv):

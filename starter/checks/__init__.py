@@ -11,11 +11,12 @@ with a hint.  It returns a :class:`CheckReport` (``.passed``, ``.items``, ``.mis
 These are public checks: passing them promises nothing about the hidden tests.
 """
 
+from judging.mistakes import KNOWN_MISTAKES, Mistake
+
 from .bundle import check_bundleAdjustment, check_rodriguesResidual
 from .correspondence import check_compute3D_pts, check_epipolarCorrespondence
 from .essential import check_essentialMatrix
 from .fundamental import check_eightpoint
-from .mistakes import KNOWN_MISTAKES, Mistake
 from .multiview import check_MultiviewReconstruction
 from .pose import check_findM2
 from .report import CheckItem, CheckReport

@@ -1,42 +1,26 @@
-"""Small pieces shared by the check modules: reading what a student's function returned."""
+"""Small pieces shared by the check modules: reading what a student's function returned, finishing a report."""
 
 from __future__ import annotations
 
-import numpy as np
+from judging.verdict import Malformed, fmt
 
 from .report import NOT_IMPLEMENTED, CheckReport, Outcome
 
-__all__ = ["as_array", "fig", "finish", "run_failed", "stop_if_not_implemented", "unpack"]
+__all__ = ["fig", "finish", "read_or_report", "run_failed", "stop_if_not_implemented"]
 
 
 def fig(x, digits: int = 3) -> str:
-    """A number for a report line: 3 significant digits, 'inf' and 'nan' spelled out."""
+    """A number for a report line (judging.verdict.fmt)."""
+    return fmt(x, digits)
+
+
+def read_or_report(report: CheckReport, reader, value, *args, label: str):
+    """``reader(value, *args)`` (a judging reader), or None after adding a failed item ``label`` saying why."""
     try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return str(x)
-    return f"{v:.{digits}g}"
-
-
-def as_array(value, shape: tuple, what: str):
-    """(float array, "") when ``value`` is numeric of exactly ``shape`` (-1 = any length);
-    (None, reason) otherwise.  Finiteness is left to the caller, which knows what NaN means."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None, f"{what}: expected a numeric array, got {type(value).__name__}"
-    if arr.ndim != len(shape) or any(s != -1 and s != d for s, d in zip(shape, arr.shape)):
-        want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
-        return None, f"{what}: expected shape {want}, got {arr.shape}"
-    return arr, ""
-
-
-def unpack(value, count: int, what: str):
-    """(tuple of ``count`` items, "") when ``value`` is a tuple/list of that length; (None, reason)."""
-    if isinstance(value, (tuple, list)) and len(value) == count:
-        return tuple(value), ""
-    got = f"a {type(value).__name__} of {len(value)}" if isinstance(value, (tuple, list)) else type(value).__name__
-    return None, f"{what}: expected {count} results, got {got}"
+        return reader(value, *args)
+    except Malformed as exc:
+        report.add(label, False, str(exc))
+        return None
 
 
 def stop_if_not_implemented(report: CheckReport, out: Outcome) -> bool:
@@ -62,3 +46,5 @@ def finish(report: CheckReport, verbose: bool) -> CheckReport:
     if verbose:
         report.show()
     return report
+
+

@@ -16,16 +16,19 @@ from functools import lru_cache
 
 import numpy as np
 
+from core.geometry import IDENTITY_POSE, CameraPair
+from judging.triangulation import reprojection_error
+
 __all__ = [
     "PUBLIC_SEED",
+    "NoisyPair",
     "OpenCVReference",
-    "TwoView",
     "car_frame",
     "default_car",
     "default_temple",
+    "linear_triangulation_error",
+    "noisy_pair",
     "opencv_reference",
-    "project",
-    "skew",
     "temple_scene",
     "two_view",
 ]
@@ -34,60 +37,24 @@ PUBLIC_SEED = 720
 _NOISE_PX = 0.5
 
 
-def skew(v) -> np.ndarray:
-    """[v]x (3, 3) with [v]x w = v x w for v (3,)."""
-    x, y, z = np.asarray(v, float)
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def project(C, w) -> np.ndarray:
-    """Pixels (N, 2) of world points w (N, 3) through C (3, 4); NaN where the depth is 0."""
-    h = np.asarray(w, float) @ np.asarray(C, float)[:, :3].T + C[:, 3]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return h[:, :2] / h[:, 2:]
-
-
 @dataclass(frozen=True, eq=False)
-class TwoView:
-    """Two cameras and points with known answers, at the official image scale.
+class NoisyPair:
+    """A camera pair with known answers and the noisy matches a check needs.
 
-    K1, K2 : (3, 3) different intrinsics.  M1 = [I | 0], M2 = [R | t] : (3, 4), world -> camera.
-    X : (N, 3) world points, in front of both cameras.
-    pts1, pts2 : (N, 2) float, their exact projections (x, y).
-    pts1_u16, pts2_u16 : (N, 2) uint16, the projections plus 0.5 px of noise, rounded (the data
-        files' form).
-    M : the scale parameter, max(width, height) = 640.
+    pair : core.geometry.CameraPair (K1, K2, M2, X and every derived truth: C1, C2, pts1, pts2, E, F).
+    pts1_u16, pts2_u16 : (N, 2) uint16, the projections plus noise, rounded (the data files' form).
+    M : the scale parameter, max(width, height).
     """
 
-    K1: np.ndarray
-    K2: np.ndarray
-    M1: np.ndarray
-    M2: np.ndarray
-    X: np.ndarray
-    pts1: np.ndarray
-    pts2: np.ndarray
+    pair: CameraPair
     pts1_u16: np.ndarray
     pts2_u16: np.ndarray
     M: float
 
-    @property
-    def C1(self) -> np.ndarray:
-        return self.K1 @ self.M1
 
-    @property
-    def C2(self) -> np.ndarray:
-        return self.K2 @ self.M2
-
-    @property
-    def E(self) -> np.ndarray:
-        """[t]x R, at the scale of the true t."""
-        return skew(self.M2[:, 3]) @ self.M2[:, :3]
-
-    @property
-    def F(self) -> np.ndarray:
-        """The true F in pixels, unit Frobenius norm."""
-        F = np.linalg.inv(self.K2).T @ self.E @ np.linalg.inv(self.K1)
-        return F / np.linalg.norm(F)
+def noisy_pair(scene) -> NoisyPair:
+    """The NoisyPair of a TempleScene (its cameras, true points and stored uint16 matches)."""
+    return NoisyPair(scene.pair, np.asarray(scene.pts1), np.asarray(scene.pts2), float(scene.M))
 
 
 @lru_cache(maxsize=1)
@@ -100,7 +67,7 @@ def temple_scene():
 
 
 @lru_cache(maxsize=1)
-def two_view() -> TwoView:
+def two_view() -> NoisyPair:
     """The generated temple's geometry seen by 640 x 480 cameras with K1 != K2 (see module doc)."""
     s = temple_scene()
     K1 = np.diag([2.0, 2.0, 1.0]) @ s.K1
@@ -108,14 +75,13 @@ def two_view() -> TwoView:
     K2[0, 0] *= 1.04
     K2[1, 1] *= 1.04
     K2[:2, 2] += [7.0, -5.0]
-    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
-    pts1, pts2 = project(K1 @ M1, s.X), project(K2 @ s.M2, s.X)
+    pair = CameraPair(K1, K2, s.M2.copy(), s.X.copy())
     rng = np.random.default_rng(PUBLIC_SEED)
 
     def stored(p):
         return np.rint(p + rng.normal(0.0, _NOISE_PX, p.shape)).astype(np.uint16)
 
-    return TwoView(K1, K2, M1, s.M2.copy(), s.X.copy(), pts1, pts2, stored(pts1), stored(pts2), 640.0)
+    return NoisyPair(pair, stored(pair.pts1), stored(pair.pts2), 640.0)
 
 
 @lru_cache(maxsize=1)
@@ -186,11 +152,22 @@ def opencv_reference(data):
         n1 = cv2.undistortPoints(p1[:, None], data.K1, None)[:, 0]
         n2 = cv2.undistortPoints(p2[:, None], data.K2, None)[:, 0]
         _, R, t, _ = cv2.recoverPose(data.K2.T @ F @ data.K1, n1, n2, np.eye(3))
-        M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
         M2 = np.hstack([R, t.reshape(3, 1) / np.linalg.norm(t)])
-        C1, C2 = data.K1 @ M1, data.K2 @ M2
+        C1, C2 = data.K1 @ IDENTITY_POSE, data.K2 @ M2
         X = cv2.triangulatePoints(C1, C2, p1.T, p2.T)
         w = (X[:3] / X[3]).T
-        err = float(np.sum((project(C1, w) - p1) ** 2) + np.sum((project(C2, w) - p2) ** 2))
+        err = reprojection_error(C1, p1, C2, p2, w)
         _REFERENCES[key] = OpenCVReference(F / np.linalg.norm(F), M2, C1, C2, w, err)
     return _REFERENCES[key], ""
+
+
+def linear_triangulation_error(C1, pts1, C2, pts2) -> float | None:
+    """The total squared reprojection error (pixels^2) of OpenCV's linear triangulation of the
+    matches (N, 2) with the cameras C1, C2 (3, 4); None when OpenCV is not installed."""
+    try:
+        import cv2
+    except ImportError:
+        return None
+    p1, p2 = np.ascontiguousarray(pts1, float), np.ascontiguousarray(pts2, float)
+    X = cv2.triangulatePoints(np.asarray(C1, float), np.asarray(C2, float), p1.T, p2.T)
+    return reprojection_error(C1, p1, C2, p2, (X[:3] / X[3]).T)

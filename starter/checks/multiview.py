@@ -1,12 +1,17 @@
-"""Public check of Q6.1: ``MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres) -> (P, err)``."""
+"""Public check of Q6.1: ``MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres) -> (P, err)``;
+every verdict is judging.multiview's."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
-from . import mistakes as mk
-from ._common import as_array, fig, finish, run_failed, stop_if_not_implemented, unpack
-from ._scenes import PUBLIC_SEED, car_frame, default_car, project
+from core.geometry import project
+from judging import multiview as jm
+
+from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
+from ._scenes import PUBLIC_SEED, car_frame, default_car
 from .report import CheckReport, call
 
 __all__ = ["DESIGN_CONFIDENCE", "THRES", "check_MultiviewReconstruction"]
@@ -43,20 +48,14 @@ def _generated():
     return C, P, pts
 
 
-def _read(report, value, n, where):
-    pair, why = unpack(value, 2, "MultiviewReconstruction")
-    if pair is None:
-        report.add(f"returns (P, err) ({where})", False, why)
-        return None, None
-    P, why = as_array(pair[0], (n, 3), "P")
-    err = float(np.asarray(pair[1], float).reshape(())) if np.size(pair[1]) == 1 else None
-    if P is None or err is None:
-        report.add(f"returns (P (N, 3), err) ({where})", False, why or "err: expected one number")
-        return None, None
-    return P, err
+def _call(fn, C, pts, Thres) -> object:
+    C = np.asarray(C, float)
+    return call(fn, C[0].copy(), np.array(pts[0], float), C[1].copy(), np.array(pts[1], float), C[2].copy(),
+                np.array(pts[2], float), Thres)
 
 
-def check_MultiviewReconstruction(MultiviewReconstruction, *, root=None, verbose: bool = True) -> CheckReport:
+def check_MultiviewReconstruction(MultiviewReconstruction, *, probes=None, sequence=None, root=None,
+                                  verbose: bool = True) -> CheckReport:
     """Reconstruct generated car keypoints built to expose threshold mistakes, and the default data.
 
     Parameters
@@ -64,52 +63,59 @@ def check_MultiviewReconstruction(MultiviewReconstruction, *, root=None, verbose
     MultiviewReconstruction : the student's function (C1, pts1, C2, pts2, C3, pts3, Thres) ->
         (P (N, 3), err); pts* are (N, 3) rows [x, y, confidence], a detection counts when its
         confidence is above Thres.
+    probes : instead of the generated frame, threshold probes to check on: objects with C
+        (3, 3, 4), pts (3, N, 3), Thres, P_true (N, 3), goal (the tolerance) and label.
+    sequence : further noisy frames with the same fields, ``judged`` (N,) and ``goal`` the mean
+        distance allowed (judging.multiview.sequence_goal).
     root : data folder for the default data (default: data/ or $HW4_DATA).
     verbose : print the report.
 
-    Checked, with Thres = 500 on detections that are exact above it and 40 px off at or below
-    it: every keypoint comes out at the truth (so no detection at or below Thres was used, and
-    none above it was left out), and err, over the detections used, is about 0.  On the default
-    data: every keypoint seen confidently twice is reconstructed and reprojects near its
-    detections.
+    Checked (judging.multiview), with Thres = 500 on detections that are exact above it and 40 px
+    off at or below it: every keypoint comes out at the truth (so no detection at or below Thres
+    was used, and none above it was left out).  On the default data: every keypoint seen
+    confidently twice is reconstructed and reprojects near its detections.
     """
     report = CheckReport("MultiviewReconstruction")
-    C, P_true, pts = _generated()
-    out = call(MultiviewReconstruction, C[0].copy(), pts[0].copy(), C[1].copy(), pts[1].copy(), C[2].copy(),
-               pts[2].copy(), THRES)
-    if stop_if_not_implemented(report, out):
-        return finish(report, verbose)
-    if not run_failed(report, out, "a generated frame"):
-        P, err = _read(report, out.value, len(P_true), "generated")
+    explicit = probes is not None or sequence is not None
+    if probes is None:
+        C, P_true, pts = _generated()
+        probes = [] if explicit else [SimpleNamespace(label="generated", C=C, pts=pts, Thres=THRES, P_true=P_true,
+                                                      goal=_TOL_M)]
+    first = True
+    for step in probes:
+        out = _call(MultiviewReconstruction, step.C, step.pts, step.Thres)
+        if first and stop_if_not_implemented(report, out):
+            return finish(report, verbose)
+        first = False
+        if run_failed(report, out, step.label):
+            continue
+        P = read_or_report(report, jm.read_P, out.value, len(step.P_true), label=f"returns (P (N, 3), err) ({step.label})")
         if P is not None:
-            right = np.linalg.norm(P - P_true, axis=1) <= _TOL_M
-            ok = bool(right.all())
-            report.add(f"keypoints at the truth, Thres = {THRES} (generated)", ok,
-                       f"{int(right.sum())} of {len(right)} within {_TOL_M * 100:g} cm", "all",
-                       () if ok else mk.threshold_mistakes(P, P_true, DESIGN_CONFIDENCE, THRES, _TOL_M))
-            report.add("err over the detections used is about 0 (generated)", np.isfinite(err) and 0 <= err <= 1e-3,
-                       f"err = {fig(err)}", "0 ... 1e-3 px^2")
+            conf = np.stack([np.asarray(p)[:, 2] for p in step.pts], axis=1)
+            report.judged(jm.threshold_probe(P, step.P_true, conf, step.Thres, step.goal), step.label)
+            err = out.value[1] if isinstance(out.value, (tuple, list)) and len(out.value) > 1 else None
+            if not explicit and not (np.size(err) == 1 and 0 <= float(np.asarray(err, float).reshape(())) <= 1e-3):
+                report.notes.append("err over the detections used should be about 0 on the generated frame "
+                                    "(every detection used is exact)")
+    for step in sequence or ():
+        out = _call(MultiviewReconstruction, step.C, step.pts, step.Thres)
+        if first and stop_if_not_implemented(report, out):
+            return finish(report, verbose)
+        first = False
+        if run_failed(report, out, step.label):
+            continue
+        P = read_or_report(report, jm.read_P, out.value, len(step.P_true), label=f"returns (P (N, 3), err) ({step.label})")
+        if P is not None:
+            report.judged(jm.sequence(P, step.P_true, step.judged, step.goal), step.label)
 
-    frame, note = default_car(root)
-    if frame is None:
+    frame, note = default_car(root) if not explicit else (None, "")
+    if not explicit and frame is None:
         report.notes.append(note)
-    else:
-        Cs = frame.C
-        out = call(MultiviewReconstruction, Cs[0].copy(), frame.pts[0].copy(), Cs[1].copy(), frame.pts[1].copy(),
-                   Cs[2].copy(), frame.pts[2].copy(), THRES)
+    elif frame is not None:
+        out = _call(MultiviewReconstruction, frame.C, frame.pts, THRES)
         if not run_failed(report, out, "the default data"):
-            n = len(frame.pts[0])
-            P, err = _read(report, out.value, n, "default data")
+            P = read_or_report(report, jm.read_P, out.value, len(frame.pts[0]),
+                               label="returns (P (N, 3), err) (default data)")
             if P is not None:
-                used = np.stack([p[:, 2] > THRES for p in frame.pts], axis=1)
-                need = used.sum(axis=1) >= 2
-                done = need & np.all(np.isfinite(P), axis=1)
-                report.add("default data: keypoints seen confidently twice are reconstructed", done.sum() == need.sum(),
-                           f"{int(done.sum())} of {int(need.sum())}", "all")
-                d = [np.linalg.norm(project(Cs[c], P[done]) - frame.pts[c][done, :2], axis=1)[used[done, c]]
-                     for c in range(3)]
-                d = np.concatenate(d) if done.any() else np.array([np.inf])
-                med = float(np.median(d))
-                report.add("default data: reprojection near the detections used", med <= _DEFAULT_MEDIAN_PX,
-                           f"median {fig(med)} px", f"<= {_DEFAULT_MEDIAN_PX:g} px")
+                report.judged(jm.reprojects_near(P, frame.C, frame.pts, THRES, _DEFAULT_MEDIAN_PX), "default data")
     return finish(report, verbose)

@@ -14,7 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .mistakes import Mistake
+from judging.mistakes import Mistake
+from judging.verdict import Verdict
 
 __all__ = ["DISCLAIMER", "NOT_IMPLEMENTED", "CheckItem", "CheckReport", "Outcome", "call"]
 
@@ -94,6 +95,13 @@ class CheckReport:
         self.items.append(CheckItem(name, None if passed is None else bool(passed), value, goal,
                                     tuple(m for m in mistakes if m is not None)))
         return passed
+
+    def judged(self, verdict: Verdict, where: str = "") -> bool:
+        """Add the item of one judgment (judging/), ``where`` naming the data in brackets."""
+        name = f"{verdict.what} ({where})" if where else verdict.what
+        measured = "; ".join([verdict.measured, *verdict.lines]) if verdict.lines else verdict.measured
+        self.add(name, verdict.passed, measured, verdict.goal, verdict.mistakes)
+        return verdict.passed
 
     def text(self) -> str:
         n_ran = sum(i.passed is not None for i in self.items)

@@ -1,0 +1,85 @@
+"""Q4.1 ``epipolarCorrespondence`` and Q4.2 ``compute3D_pts``: matches and 3D points near the truth.
+
+A match is right within ``tolerance(width)`` pixels of the true match; a 3D point is right when it
+reprojects (core.geometry.project) within that tolerance of the point in image 1 and of its true
+match in image 2.  The goal is a share of the points: 70 % of what a reference matcher reaches on
+the same points (``ref_share``; 1 when there is none), partial credit down to 20 % of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.geometry import project
+
+from .mistakes import points_behind_cameras, points_xy_swapped
+from .verdict import Verdict, read_array, read_number, share_score
+
+__all__ = ["FLOOR", "GOAL", "matches", "points3d", "read_match", "read_points", "right_2d", "right_3d", "tolerance"]
+
+GOAL, FLOOR = 0.7, 0.2
+_M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+
+
+def tolerance(width: float) -> float:
+    """Pixels within which a match counts as right, for images ``width`` pixels wide (3 px at 640)."""
+    return max(2.0, 3.0 * float(width) / 640.0)
+
+
+def read_match(value) -> np.ndarray:
+    """(x2, y2) as a float array (2,) from one epipolarCorrespondence result, or Malformed."""
+    if isinstance(value, (tuple, list)) and len(value) == 2:
+        return np.array([read_number(v, "x2" if k == 0 else "y2") for k, v in enumerate(value)])
+    return read_array(value, (2,), "(x2, y2)")
+
+
+def read_points(value, n: int) -> np.ndarray:
+    """w (n, 3) from compute3D_pts's result: w alone, or a tuple starting with w; or Malformed."""
+    if isinstance(value, (tuple, list)) and len(value) in (2, 3):
+        value = value[0]
+    return read_array(value, (n, 3), "the 3D points")
+
+
+def _goal(share: float, ref_share: float, tol: float, n_right: int, n: int, what: str, mistakes=()) -> Verdict:
+    goal, floor = GOAL * ref_share, FLOOR * ref_share
+    return Verdict(what, share >= goal, share_score(share, goal, floor), f"{n_right} of {n} within {tol:g} px",
+                   f">= {goal:.0%}", (), tuple(m for m in mistakes if m is not None))
+
+
+def right_2d(pts2, truth2, tol: float) -> np.ndarray:
+    """(P,) bool: the matches pts2 (P, 2) within ``tol`` px of truth2 (P, 2) (NaN is never right)."""
+    d = np.linalg.norm(np.asarray(pts2, float) - truth2, axis=1)
+    return np.where(np.isfinite(d), d, np.inf) <= tol
+
+
+def matches(pts2, truth2, tol: float, ref_share: float = 1.0) -> Verdict:
+    """pts2 (P, 2), the matches found, within ``tol`` px of truth2 (P, 2) for a share >= GOAL * ref_share."""
+    what = "matches near the true ones"
+    pts2 = np.asarray(pts2, float)
+    right = right_2d(pts2, truth2, tol)
+    share = float(right.mean()) if len(right) else 0.0
+    swapped = None if share >= GOAL * ref_share else points_xy_swapped(np.nan_to_num(pts2, nan=-1e9), truth2, tol)
+    return _goal(share, ref_share, tol, int(right.sum()), len(right), what, [swapped])
+
+
+def right_3d(w, C1, C2, pts1, truth2, tol: float) -> np.ndarray:
+    """(P,) bool: w (P, 3) reprojects within tol of pts1 (P, 2) through C1 and of truth2 (P, 2) through C2."""
+    d1 = np.linalg.norm(project(C1, w) - pts1, axis=1)
+    d2 = np.linalg.norm(project(C2, w) - truth2, axis=1)
+    d1, d2 = (np.where(np.isfinite(d), d, np.inf) for d in (d1, d2))
+    return (d1 <= tol) & (d2 <= tol)
+
+
+def points3d(w, C1, C2, pts1, truth2, tol: float, ref_share: float = 1.0, M2=None) -> Verdict:
+    """3D points w (P, 3) right (see :func:`right_3d`) for a share >= GOAL * ref_share.
+
+    ``M2`` (3, 4), camera 2's pose when known, lets the catalogue name points behind a camera.
+    """
+    what = "3D points near the true ones"
+    w = np.asarray(w, float)
+    right = right_3d(w, C1, C2, pts1, truth2, tol)
+    share = float(right.mean()) if len(right) else 0.0
+    behind = None
+    if M2 is not None and share < GOAL * ref_share and np.all(np.isfinite(w)):
+        behind = points_behind_cameras(w, _M1, M2)
+    return _goal(share, ref_share, tol, int(right.sum()), len(right), what, [behind])
