@@ -3,18 +3,21 @@
   grade SUBMISSION... --out DIR [--jobs N]   grade folders or .zip files of notebooks into DIR
   key --out DIR                               write the answer-key submission (scores full marks)
 
-Other modules of the package add their own subcommands through an ``add_cli(subparsers)``
-function (``autograder.gradescope``, ``autograder.nbgrader_course``) when they are present.
+  gradescope ...                              build the Gradescope autograder zip, or run inside it
+  nbgrader ...                                build an nbgrader course graded by the hidden checks
+
+The commands are listed in ``COMMANDS``; ``gradescope`` and ``nbgrader`` add their own arguments
+(``add_cli`` of their modules).
 """
 
 from __future__ import annotations
 
-import argparse
-import importlib
 import sys
 from pathlib import Path
 
-_PLUGINS = ("gradescope", "nbgrader_course")
+from core.commands import Command
+from core.commands import build_parser as _build_parser
+from core.commands import run
 
 
 def _grade(args) -> int:
@@ -51,12 +54,7 @@ def _key(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m autograder", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    p = sub.add_parser("grade", help="grade submissions (folders or .zip files of notebooks)")
+def _grade_arguments(p) -> None:
     p.add_argument("submissions", nargs="+", help="submission folders or .zip files")
     p.add_argument("--out", required=True, help="output folder: <out>/<name>/results.json, <out>/grades.csv")
     p.add_argument("--jobs", type=int, default=1, help="submissions graded at once (default 1)")
@@ -65,32 +63,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--isolation", default="auto", choices=["auto", "namespaces", "user-namespaces", "basic"],
                    help="sandbox level (default: the strongest that works here)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=_grade)
 
-    p = sub.add_parser("key", help="write the answer-key submission (a folder and a .zip)")
+
+def _key_arguments(p) -> None:
     p.add_argument("--out", required=True, help="folder to write hw4_key/ and hw4_key.zip into")
     p.add_argument("--no-zip", action="store_true", help="only the folder")
     p.add_argument("--grade", action="store_true", help="also grade it and print the score")
     p.add_argument("--config", default=None, help="grader settings for --grade")
-    p.set_defaults(func=_key)
 
-    for name in _PLUGINS:
-        try:
-            module = importlib.import_module(f"autograder.{name}")
-        except ImportError:
-            continue
-        if hasattr(module, "add_cli"):
-            module.add_cli(sub)
-    return parser
+
+# __name__ is "__main__" under python -m and "autograder.__main__" when imported: either way this module.
+COMMANDS = {
+    "grade": Command(__name__, "_grade", "grade submissions (folders or .zip files of notebooks)",
+                     arguments="_grade_arguments"),
+    "key": Command(__name__, "_key", "write the answer-key submission (a folder and a .zip)",
+                   arguments="_key_arguments", needs=("nbformat",), install="pip install nbformat"),
+    "gradescope": Command("autograder.gradescope", help="build the Gradescope autograder zip, or run inside it",
+                          register="add_cli"),
+    "nbgrader": Command("autograder.nbgrader_course", help="build an nbgrader course graded by the hidden checks",
+                        register="add_cli"),
+}
+
+
+def build_parser():
+    """The parser with every command and its arguments (every command's module imported)."""
+    return _build_parser("python -m autograder", __doc__, COMMANDS)
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (FileNotFoundError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run("python -m autograder", __doc__, COMMANDS, argv)
 
 
 if __name__ == "__main__":

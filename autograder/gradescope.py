@@ -16,10 +16,9 @@ Contents of the zip (paths relative to /autograder/source):
 ====================================  ==========================================================
 ``setup.sh``, ``run_autograder``      from ``autograder/gradescope_assets/``, ``@FIELDS@`` filled
 ``requirements.txt``                  the kit's (what setup.sh installs)
-``autograder/`` ``solutions/``        whole packages, without ``__pycache__``
-``starter/`` ``scenes/``
-``kit/``                              only ``__init__.py`` and the modules the packages above
-                                      import (``core.manifest``...), found by reading their imports
+``autograder/`` ``solutions/``        the packages of ``core.shipping.GRADER_PACKAGES``, whole,
+``core/`` ``starter/`` ``scenes/``    without ``__pycache__``
+``judging/``
 ``data/``                             the kit's default data (generated when the kit's is empty)
 ``grader_config.json``                the instructor's grading settings at build time, with the
                                       secret all hidden seeds derive from (``autograder.config``)
@@ -34,7 +33,6 @@ see is results.json, which carries the grader's feedback and never the hidden in
 from __future__ import annotations
 
 import argparse
-import ast
 import json
 import dataclasses
 import os
@@ -45,8 +43,9 @@ import tempfile
 import time
 import traceback
 import zipfile
-from collections.abc import Iterable
 from pathlib import Path
+
+from core.shipping import GRADER_PACKAGES
 
 from .results import SubmissionResult
 
@@ -69,7 +68,7 @@ __all__ = [
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 ASSETS = Path(__file__).resolve().with_name("gradescope_assets")
-PACKAGES = ("autograder", "solutions", "core", "starter", "scenes")
+PACKAGES = GRADER_PACKAGES  # which packages ship: core.shipping, the kit's one table
 DEFAULT_TIME_LIMIT = 540   # seconds: below Gradescope's default 10-minute limit, room for the fallback
 DEFAULT_VENV = "/opt/hw4-venv"
 _SCRIPTS = ("setup.sh", "run_autograder")
@@ -95,37 +94,11 @@ def _package_files(root: Path, package: str) -> list[Path]:
     return sorted(p for p in folder.rglob("*") if p.is_file() and not p.is_symlink() and _kept(p, root))
 
 
-def _kit_modules(root: Path, files: Iterable[Path]) -> set[str]:
-    """Modules of the ``kit`` package that ``files`` import (the grader needs them, not all of kit/)."""
-    wanted: set[str] = set()
-    for path in files:
-        if path.suffix != ".py":
-            continue
-        try:
-            tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        except SyntaxError as exc:
-            raise ValueError(f"kit_root: {path} does not parse ({exc.msg}, line {exc.lineno})") from None
-        in_kit = path.parent == root / "kit"
-        for node in ast.walk(tree):
-            names = []
-            if isinstance(node, ast.ImportFrom) and (node.level == 0 or (node.level == 1 and in_kit)):
-                module = node.module if node.level == 0 else "kit" + (f".{node.module}" if node.module else "")
-                names = [module] + [f"{module}.{a.name}" for a in node.names] if module else []
-            elif isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            for name in names:
-                parts = name.split(".")
-                if parts[0] == "kit" and len(parts) > 1 and (root / "kit" / f"{parts[1]}.py").is_file():
-                    wanted.add(parts[1])
-    return wanted
-
-
 def grader_files(kit_root: str | Path = KIT_ROOT) -> list[tuple[str, Path]]:
     """The kit's files a grading environment needs: ``(relative posix path, source file)``, sorted.
 
-    The packages of ``PACKAGES`` whole, ``requirements.txt``, and of ``kit/`` only ``__init__.py``
-    plus the modules those packages import (followed through kit modules importing each other).
-    Data and configuration are not included (see ``build_bundle``).
+    The packages of ``core.shipping.GRADER_PACKAGES`` whole and ``requirements.txt``.  Data and
+    configuration are not included (see ``build_bundle``).
 
     Raises
     ------
@@ -134,18 +107,10 @@ def grader_files(kit_root: str | Path = KIT_ROOT) -> list[tuple[str, Path]]:
     """
     root = Path(kit_root).resolve()
     files = [p for pkg in PACKAGES for p in _package_files(root, pkg)]
-    kit_init = root / "kit" / "__init__.py"
-    modules: set[str] = set()
-    frontier = files + ([kit_init] if kit_init.is_file() else [])
-    while frontier:
-        new = _kit_modules(root, frontier) - modules
-        modules |= new
-        frontier = [root / "kit" / f"{m}.py" for m in sorted(new)]
-    kit = ([kit_init] if kit_init.is_file() else []) + [root / "kit" / f"{m}.py" for m in sorted(modules)]
     requirements = root / "requirements.txt"
     if not requirements.is_file():
         raise FileNotFoundError(f"kit_root: expected requirements.txt in {root}, found none")
-    out = [(p.relative_to(root).as_posix(), p) for p in files + kit + [requirements]]
+    out = [(p.relative_to(root).as_posix(), p) for p in files + [requirements]]
     return sorted(set(out))
 
 

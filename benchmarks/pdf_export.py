@@ -30,7 +30,8 @@ from matplotlib.figure import Figure
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_output
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
-from kit import pdf  # noqa: E402
+from handin import html as pdf_html  # noqa: E402
+from handin import pdf  # noqa: E402
 from core.manifest import NOTEBOOKS, QUESTIONS  # noqa: E402
 
 GOAL_S = 60.0
@@ -94,7 +95,7 @@ def main(argv=None) -> int:
         totals, html_times = [], []
         for _ in range(args.repeat):
             t0 = time.perf_counter()
-            page, _ = pdf.notebooks_to_html(folder)
+            page, _ = pdf_html.notebooks_to_html(folder)
             t1 = time.perf_counter()
             html_path = tmp / "hw4.html"
             html_path.write_text(page, encoding="utf-8")

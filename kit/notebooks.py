@@ -704,7 +704,7 @@ def output_path(stem: str, variant: str, root: Path | None = None) -> Path:
 def build_all(settings: Settings | None = None, *, root: Path | None = None, src_dir: Path | None = None,
               solutions_dir: Path | None = None) -> dict[Path, nbformat.NotebookNode]:
     """Every notebook of every version, and the hand-in notebook: output path (under ``root``) -> notebook."""
-    from kit.handin import HAND_IN_NAME, hand_in_notebook
+    from handin.hand_in_notebook import HAND_IN_NAME, hand_in_notebook
 
     built = {output_path(stem, variant, root): build_notebook(stem, variant, settings, src_dir=src_dir,
                                                                solutions_dir=solutions_dir)
@@ -739,7 +739,7 @@ def outdated(settings: Settings | None = None, *, root: Path | None = None) -> l
 # ------------------------------------------------------------------------------------ CLI
 
 
-def _cli(args) -> int:
+def main(args) -> int:
     base = load_settings()
     settings = Settings(args.repo_url or base.repo_url, args.ref or base.ref)
     root = Path(args.out) if args.out else None
@@ -758,12 +758,8 @@ def _cli(args) -> int:
     return 0
 
 
-def add_cli(subparsers) -> None:
-    """Register ``python -m kit notebooks``."""
-    p = subparsers.add_parser(
-        "notebooks", help="build the student notebooks, the answer key and the nbgrader source from solutions/",
-        description="Build notebooks/<stem>.ipynb (students), notebooks/key/ (answer key) and "
-                    "notebooks/nbgrader/source/hw4/ from notebooks/src/ and solutions/.")
+def add_arguments(p) -> None:
+    """The arguments of ``python -m kit notebooks``."""
     p.add_argument("--repo-url", default=None,
                    help="GitHub repository of the student release, for the Colab links and the kit download "
                         "(default: notebooks/src/settings.json)")
@@ -771,4 +767,3 @@ def add_cli(subparsers) -> None:
     p.add_argument("--out", default=None, help="write under this folder instead of the kit (notebooks/... inside)")
     p.add_argument("--check", action="store_true",
                    help="write nothing; exit 1 when a committed notebook differs from a fresh build")
-    p.set_defaults(func=_cli)

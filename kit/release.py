@@ -2,16 +2,18 @@
 
 ``python -m kit release --out DIR`` writes
 
-    starter/  scenes/  data/           the helpers, the public checks, the scene generator, the data
-    kit/                               only the student commands (pdf export, code bundle, manifest)
+    core/ scenes/ starter/ judging/    the packages of ``core.shipping.STUDENT_PACKAGES`` (and judging/),
+    handin/                            whole: helpers, public checks, scene generator, hand-in commands
+    data/                              the data, without data/official/
     notebooks/<stem>.ipynb             the student notebooks, as committed (checked against a build)
     requirements.txt  pyproject.toml   so that ``pip install -r requirements.txt`` or ``pip install -e .`` works
     README.md                          a short guide for students
 
-and never solutions/, autograder/, tests/, benchmarks/, notebooks/key/, notebooks/nbgrader/,
-notebooks/src/ or data/official/.  Before returning it scans what it wrote (:func:`leaks`): a
-Python file or notebook that imports ``solutions`` or holds the body of a reference function
-stops the release with an error naming the file.
+and never what ``core.shipping.NEVER_TO_STUDENTS`` lists (solutions/, autograder/, kit/, tests/,
+benchmarks/, notebooks/key/, notebooks/nbgrader/, notebooks/src/, data/official/).  Before
+returning it scans what it wrote (:func:`leaks`): a Python file or notebook that imports
+``solutions`` or holds the body of a reference function, or a path that must never ship, stops
+the release with an error naming the file.
 """
 
 from __future__ import annotations
@@ -24,21 +26,23 @@ import nbformat
 
 from core.manifest import NOTEBOOKS, QUESTIONS
 from core.notebook import Cell, code_cells, parse_cells, read_text
+from core.shipping import DATA_EXCLUDE, NEVER_TO_STUDENTS, STUDENT_OPTIONAL_PACKAGES, STUDENT_PACKAGES
 
-__all__ = ["RELEASE_TOP", "STUDENT_KIT_FILES", "leaks", "reference_bodies", "write_release"]
+__all__ = ["RELEASE_TOP", "leaks", "reference_bodies", "release_packages", "write_release"]
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 
-# The kit/ modules students run (python -m kit pdf); the rest of kit/ is for instructors and
-# reads solutions/.
-STUDENT_KIT_FILES = ("__init__.py", "__main__.py", "bundle.py", "pdf.py", "pdf_assets")
-# Everything the release writes at its top level (and all that --force may replace).
-RELEASE_TOP = ("core", "starter", "scenes", "data", "kit", "notebooks", "requirements.txt", "pyproject.toml",
-               "README.md", ".gitignore")
+
+def release_packages(kit_root: Path = KIT_ROOT) -> tuple[str, ...]:
+    """The packages the release ships (``core.shipping``): the required ones and those optional ones present."""
+    return STUDENT_PACKAGES + tuple(p for p in STUDENT_OPTIONAL_PACKAGES if (Path(kit_root) / p / "__init__.py").is_file())
+
+
+# Everything the release may write at its top level (and all that --force may replace).
+RELEASE_TOP = STUDENT_PACKAGES + STUDENT_OPTIONAL_PACKAGES + (
+    "data", "notebooks", "requirements.txt", "pyproject.toml", "README.md", ".gitignore")
 _SKIP_NAMES = {"__pycache__", ".ipynb_checkpoints", ".DS_Store", ".pytest_cache"}
 _SKIP_SUFFIXES = {".pyc", ".pyo"}
-# Dropped-in course files stay with the instructor (the README of course-data says why).
-_DATA_EXCLUDE = {"official"}
 
 _PYPROJECT = """\
 [build-system]
@@ -53,13 +57,13 @@ requires-python = ">=3.10"
 dynamic = ["dependencies"]
 
 [tool.setuptools]
-packages = ["core", "starter", "starter.checks", "scenes", "kit"]
+packages = [{packages}]
 
 [tool.setuptools.dynamic]
 dependencies = {{ file = ["requirements.txt"] }}
 
 [tool.setuptools.package-data]
-kit = ["pdf_assets/*", "pdf_assets/*/*"]
+handin = ["pdf_assets/*", "pdf_assets/*/*"]
 """
 
 _GITIGNORE = "__pycache__/\n*.pyc\n.ipynb_checkpoints/\n*.egg-info/\nhw4.pdf\nhw4_code.zip\n"
@@ -99,7 +103,7 @@ Run each notebook's first cell before anything else. Keep the six notebooks toge
 - `data/`: the temple pair (`data/temple/`) and the car sequence (`data/q6/`). Set the environment
   variable `HW4_DATA` to use another folder with the same layout.
 - `scenes/`: the generator that made this data.
-- `kit/`: the commands below.
+- `handin/`: the hand-in commands below (the PDF for Gradescope, the code zip).
 
 The self-checks are a help, not the grade: passing them promises nothing about the hidden tests.
 
@@ -108,7 +112,7 @@ The self-checks are a help, not the grade: passing them promises nothing about t
 Write your name in `STUDENT_NAME` in the first cell, run every notebook top to bottom, save, then
 
 ```
-python -m kit pdf notebooks/ --out hw4.pdf --bundle hw4_code.zip
+python -m handin pdf notebooks/ --out hw4.pdf --code-zip hw4_code.zip
 ```
 
 Submit `hw4.pdf` (mark the pages of each question on Gradescope) and `hw4_code.zip`.
@@ -151,7 +155,7 @@ def leaks(folder, solutions_dir: Path | None = None) -> list[str]:
 
     Every ``.py`` file and every notebook's code cells are parsed; a function whose body is
     the body of a reference function (same ast) is reported, as is any ``import solutions``,
-    ``from solutions...`` or ``importlib.import_module("solutions...")``.  A file that does
+    ``from solutions...`` or a call such as ``importlib.import_module("solutions...")``.  A file that does
     not parse is reported too, since it could not be checked.
     """
     bodies = {dump: name for name, dump in reference_bodies(solutions_dir).items()}
@@ -177,9 +181,12 @@ def leaks(folder, solutions_dir: Path | None = None) -> list[str]:
                 elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "solutions" \
                         and node.level == 0:
                     problems.append(f"{where}: imports from solutions")
-                elif isinstance(node, ast.Constant) and isinstance(node.value, str) \
-                        and node.value.split(".")[0] == "solutions" and node.value.replace(".", "").isidentifier():
-                    problems.append(f"{where}: names the module {node.value!r}")
+                elif isinstance(node, ast.Call) and any(
+                        isinstance(a, ast.Constant) and isinstance(a.value, str) and a.value.split(".")[0] == "solutions"
+                        and a.value.replace(".", "").isidentifier() for a in node.args):
+                    # importlib.import_module("solutions.pose"), __import__("solutions"): a plain
+                    # string elsewhere (core.shipping's table) imports nothing.
+                    problems.append(f"{where}: imports a solutions module by name")
                 elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                     body = node.body[1:] if (node.body and isinstance(node.body[0], ast.Expr)
                                              and isinstance(node.body[0].value, ast.Constant)) else node.body
@@ -206,7 +213,7 @@ def _student_notebooks(notebooks_dir: Path) -> list[Path]:
         if nbformat.writes(fresh) != nbformat.writes(nb):
             raise ValueError(f"{path} differs from its source: rebuild it (python -m kit notebooks)")
         paths.append(path)
-    from kit.handin import HAND_IN_NAME
+    from handin.hand_in_notebook import HAND_IN_NAME
 
     hand_in = notebooks_dir / HAND_IN_NAME
     if hand_in.exists():
@@ -269,26 +276,22 @@ def write_release(out, *, data=None, force: bool = False) -> list[Path]:
     notebooks = _student_notebooks(kit / "notebooks")
 
     out.mkdir(parents=True, exist_ok=True)
-    _copy_tree(kit / "core", out / "core")
-    _copy_tree(kit / "starter", out / "starter")
-    _copy_tree(kit / "scenes", out / "scenes")
-    _copy_tree(data, out / "data", exclude_top=_DATA_EXCLUDE)
-    (out / "kit").mkdir()
-    for name in STUDENT_KIT_FILES:
-        src = kit / "kit" / name
-        if src.is_dir():
-            _copy_tree(src, out / "kit" / name)
-        else:
-            shutil.copy2(src, out / "kit" / name)
+    packages = release_packages(kit)
+    for name in packages:
+        _copy_tree(kit / name, out / name)
+    _copy_tree(data, out / "data", exclude_top=set(DATA_EXCLUDE))
     (out / "notebooks").mkdir()
     for path in notebooks:
         shutil.copy2(path, out / "notebooks" / path.name)
     shutil.copy2(kit / "requirements.txt", out / "requirements.txt")
-    (out / "pyproject.toml").write_text(_PYPROJECT.format(version=_version()), encoding="utf-8")
+    include = ", ".join(f'"{".".join(d.relative_to(out).parts)}"' for name in packages
+                        for d in sorted([out / name, *(out / name).rglob("*")]) if (d / "__init__.py").is_file())
+    (out / "pyproject.toml").write_text(_PYPROJECT.format(version=_version(), packages=include), encoding="utf-8")
     (out / "README.md").write_text(_readme(load_settings()), encoding="utf-8")
     (out / ".gitignore").write_text(_GITIGNORE, encoding="utf-8")
 
-    problems = leaks(out)
+    problems = leaks(out) + [f"{rel}: must never ship to students" for rel in NEVER_TO_STUDENTS
+                             if (out / rel).exists()]
     if problems:
         for name in RELEASE_TOP:
             target = out / name
@@ -300,7 +303,7 @@ def write_release(out, *, data=None, force: bool = False) -> list[Path]:
     return sorted(p for p in out.rglob("*") if p.is_file())
 
 
-def _cli(args) -> int:
+def main(args) -> int:
     files = write_release(args.out, data=args.data, force=args.force)
     size = sum(p.stat().st_size for p in files) / 2**20
     print(f"wrote the student release to {Path(args.out).resolve()}: {len(files)} files, {size:.1f} MB")
@@ -308,13 +311,8 @@ def _cli(args) -> int:
     return 0
 
 
-def add_cli(subparsers) -> None:
-    """Register ``python -m kit release``."""
-    p = subparsers.add_parser(
-        "release", help="write the student release (no solutions, key, autograder or tests)",
-        description="Write what students get: starter/, scenes/, data/, the student notebooks, the student "
-                    "commands of kit/, requirements.txt, a minimal pyproject.toml and a README.")
+def add_arguments(p) -> None:
+    """The arguments of ``python -m kit release``."""
     p.add_argument("--out", required=True, help="folder to write (outside the kit; new or empty)")
     p.add_argument("--data", default=None, help="data folder to ship (default: the kit's data/)")
     p.add_argument("--force", action="store_true", help="replace a previous release in --out")
-    p.set_defaults(func=_cli)

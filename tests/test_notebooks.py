@@ -21,7 +21,8 @@ import tomllib
 import solutions
 from kit import notebooks as nbk
 from core.manifest import NOTEBOOKS, QUESTION_HEADING, QUESTIONS, functions_of_notebook
-from kit.release import RELEASE_TOP, leaks, reference_bodies, write_release
+from core.shipping import NEVER_TO_STUDENTS, STUDENT_PACKAGES
+from kit.release import RELEASE_TOP, leaks, reference_bodies, release_packages, write_release
 from scenes.cameras import project
 from starter.notebook_import import from_notebook, notebook_definitions, try_run
 
@@ -158,7 +159,9 @@ def test_leak_scan_finds_a_planted_reference_body(tmp_path):
     planted.name = "my_triangulate"  # renamed and re-typed: the body is what gives it away
     (tmp_path / "helper.py").write_text("import numpy as np\n\n\n" + ast.unparse(planted))
     (tmp_path / "other.py").write_text("import numpy as np\nfrom solutions.pose import findM2\n")
+    (tmp_path / "sly.py").write_text("import importlib\npose = importlib.import_module('solutions.pose')\n")
     problems = leaks(tmp_path)
+    assert any("sly.py" in p and "solutions" in p for p in problems)
     assert any("helper.py" in p and "triangulation.triangulate" in p for p in problems)
     assert any("other.py" in p and "solutions" in p for p in problems)
 
@@ -513,16 +516,30 @@ def release(tmp_path_factory):
 
 def test_release_holds_the_student_kit_only(release):
     out, files = release
-    assert {p.name for p in out.iterdir()} == set(RELEASE_TOP)
-    for gone in ("solutions", "autograder", "tests", "benchmarks"):
+    assert {p.name for p in out.iterdir()} == set(RELEASE_TOP) & (
+        set(release_packages()) | {"data", "notebooks", "requirements.txt", "pyproject.toml", "README.md", ".gitignore"})
+    assert set(STUDENT_PACKAGES) <= set(release_packages()) and {"core", "handin"} <= set(STUDENT_PACKAGES)
+    for gone in ("solutions", "autograder", "tests", "benchmarks", "kit", "notebooks/key", "notebooks/nbgrader",
+                 "notebooks/src", "data/official", *NEVER_TO_STUDENTS):
         assert not (out / gone).exists()
+    # Nothing in the release imports a package that does not ship (kit, autograder, solutions...).
+    shipped = {p.name for p in out.iterdir() if (p / "__init__.py").is_file()}
+    kit_packages = {p.name for p in KIT_ROOT.iterdir() if (p / "__init__.py").is_file()}
+    for path in files:
+        if path.suffix == ".py":
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                         [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module else [])
+                for name in names:
+                    top = name.split(".")[0]
+                    assert top in shipped or top not in kit_packages, f"{path.relative_to(out)} imports {name}"
     assert sorted(p.name for p in (out / "notebooks").iterdir()) == sorted(
         [f"{s}.ipynb" for s in NOTEBOOKS] + ["hand_in.ipynb"])
     for p in (out / "notebooks").iterdir():
         if p.name != "hand_in.ipynb":
             assert nbformat.read(p, as_version=4).metadata["hw4_kit"]["variant"] == "student"
     assert not (out / "data" / "official").exists() and (out / "data" / "temple" / "some_corresp.npz").exists()
-    assert not (out / "kit" / "pipeline.py").exists() and not (out / "kit" / "notebooks.py").exists()
+    assert (out / "handin" / "pdf_assets" / "hw4.css").exists() and (out / "core" / "notebook.py").exists()
     assert not any("__pycache__" in p.parts for p in files)
     assert (out / "starter" / "notebook_import.py").exists()
 

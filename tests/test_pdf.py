@@ -9,7 +9,6 @@ browser and skip, saying how to get one, when there is none.
 
 from __future__ import annotations
 
-import argparse
 import base64
 import io
 import re
@@ -23,8 +22,9 @@ import pytest
 from matplotlib.figure import Figure
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_output
 
-from kit import pdf
-from kit.bundle import inspect_notebook
+from handin import browser, cover, mathjax, pdf
+from handin import html as pdf_html
+from handin.code_zip import inspect_notebook
 from core.manifest import QUESTIONS
 
 NAME = "Ada Lovelace"
@@ -88,16 +88,16 @@ def make_sample(folder) -> dict:
 
 def _browser_or_skip() -> str:
     try:
-        return pdf.find_browser()
-    except pdf.BrowserNotFoundError:
+        return browser.find_browser()
+    except browser.BrowserNotFoundError:
         pytest.skip("no Chromium-based browser: apt-get install chromium, or "
                     "pip install playwright && python -m playwright install chromium")
 
 
 def _mathjax_or_skip():
     try:
-        return pdf.find_mathjax()
-    except pdf.MathJaxNotFoundError:
+        return mathjax.find_mathjax()
+    except mathjax.MathJaxNotFoundError:
         pytest.skip("no local MathJax: pip install jupyter-server-mathjax (or apt-get install libjs-mathjax)")
 
 
@@ -186,9 +186,9 @@ def test_long_output_is_truncated_with_a_note(printed):
 def test_interactive_outputs_become_images_or_notes(printed):
     _, pages, _ = printed
     text = "".join(pages)
-    assert pdf.PLOTLY_NOTE in text
+    assert pdf_html.PLOTLY_NOTE in text
     assert "FloatSlider_SIBLING" not in text and "IntSlider_ALONE" not in text
-    assert text.count(pdf.PLOTLY_NOTE) == 1  # the plotly output with a PNG printed its PNG
+    assert text.count(pdf_html.PLOTLY_NOTE) == 1  # the plotly output with a PNG printed its PNG
     assert "interactive widget" in text
 
 
@@ -206,15 +206,14 @@ def test_playwright_engine_waits_for_math(sample, tmp_path):
     assert "\\begin" not in "".join(pages) and "\N{N-ARY SUMMATION}" in "".join(pages)
 
 
-def test_cli_writes_pdf_and_bundle(sample, tmp_path):
+def test_cli_writes_pdf_and_code_zip(sample, tmp_path):
+    from handin.__main__ import main
+
     _browser_or_skip()
     _mathjax_or_skip()
     folder, _ = sample
-    parser = argparse.ArgumentParser(prog="kit")
-    pdf.add_cli(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(["pdf", str(folder), "--out", str(tmp_path / "hw4.pdf"),
-                              "--bundle", str(tmp_path / "hw4_code.zip"), "--name", "Grace Hopper"])
-    assert args.func(args) == 0
+    assert main(["pdf", str(folder), "--out", str(tmp_path / "hw4.pdf"),
+                 "--code-zip", str(tmp_path / "hw4_code.zip"), "--name", "Grace Hopper"]) == 0
     assert (tmp_path / "hw4.pdf").read_bytes()[:5] == b"%PDF-"
     assert sorted(zipfile.ZipFile(tmp_path / "hw4_code.zip").namelist()) == \
         ["q2_eightpoint.ipynb", "q3_metric_reconstruction.ipynb"]
@@ -226,7 +225,7 @@ def test_cli_writes_pdf_and_bundle(sample, tmp_path):
 def page_html(sample):
     folder, _ = sample
     _mathjax_or_skip()
-    return pdf.notebooks_to_html(folder)[0]
+    return pdf_html.notebooks_to_html(folder)[0]
 
 
 def test_html_loads_nothing_from_the_network(page_html):
@@ -244,21 +243,21 @@ def test_html_breaks_a_page_before_each_question_and_notebook(page_html):
 def test_name_argument_beats_student_name(sample):
     folder, _ = sample
     _mathjax_or_skip()
-    page, _ = pdf.notebooks_to_html(folder, name="Grace Hopper")
+    page, _ = pdf_html.notebooks_to_html(folder, name="Grace Hopper")
     assert "Name: Grace Hopper" in page and f"Name: {NAME}" not in page
 
 
 def test_name_placeholder_when_nobody_is_named(tmp_path):
     _mathjax_or_skip()
     nbformat.write(new_notebook(cells=[new_markdown_cell("## Q1.1 Fixating cameras")]), tmp_path / "q1_proofs.ipynb")
-    page, _ = pdf.notebooks_to_html(tmp_path)
-    assert f"Name: {pdf.NO_NAME}" in page
+    page, _ = pdf_html.notebooks_to_html(tmp_path)
+    assert f"Name: {cover.NO_NAME}" in page
 
 
 def test_folder_without_homework_notebooks_raises(tmp_path):
     nbformat.write(new_notebook(), tmp_path / "Untitled.ipynb")
     with pytest.raises(ValueError, match="notebooks"):
-        pdf.notebooks_to_html(tmp_path, mathjax=tmp_path)
+        pdf_html.notebooks_to_html(tmp_path, mathjax=tmp_path)
     with pytest.raises(ValueError, match="out"):
         pdf.build_pdf(tmp_path, tmp_path / "hw4.html")
 
@@ -275,19 +274,19 @@ def _run(pre, cell):
 
 def test_static_outputs_prefer_images_and_drop_widgets():
     png = figure_png(4)
-    cell = _run(pdf.StaticOutputsPreprocessor(), _cell(
+    cell = _run(pdf_html.StaticOutputsPreprocessor(), _cell(
         new_output("display_data", data={"text/html": "<b>x</b>", "image/svg+xml": "<svg/>", "image/png": png}),
         new_output("display_data", data={"application/vnd.jupyter.widget-view+json": WIDGET, "text/plain": "w"}),
         new_output("display_data", data={"application/javascript": "alert(1)"}),
         new_output("execute_result", data={"text/html": "<table></table>", "text/plain": "df"}, execution_count=1)))
     assert [list(o.data) for o in cell.outputs] == [["image/png"], ["text/html"]]
-    alone = _run(pdf.StaticOutputsPreprocessor(), _cell(
+    alone = _run(pdf_html.StaticOutputsPreprocessor(), _cell(
         new_output("display_data", data={"application/vnd.jupyter.widget-view+json": WIDGET, "text/plain": "w"})))
-    assert pdf.WIDGET_NOTE in alone.outputs[0].data["text/plain"]
+    assert pdf_html.WIDGET_NOTE in alone.outputs[0].data["text/plain"]
 
 
 def test_truncation_keeps_head_and_tail():
-    pre = pdf.TruncateOutputsPreprocessor()
+    pre = pdf_html.TruncateOutputsPreprocessor()
     text = "".join(f"row {i}\n" for i in range(1000))
     cell = _run(pre, _cell(new_output("stream", name="stdout", text=text)))
     lines = cell.outputs[0].text.splitlines()
@@ -303,7 +302,7 @@ def test_huge_images_are_scaled_down():
 
     buf = io.BytesIO()
     Image.new("RGB", (5000, 50), "white").save(buf, format="PNG")
-    pre = pdf.ScaleImagesPreprocessor()
+    pre = pdf_html.ScaleImagesPreprocessor()
     cell = _run(pre, _cell(new_output("display_data", data={"image/png": base64.b64encode(buf.getvalue()).decode()})))
     scaled = Image.open(io.BytesIO(base64.b64decode(cell.outputs[0].data["image/png"])))
     assert scaled.width == pre.max_px and scaled.height == round(50 * pre.max_px / 5000)
@@ -313,7 +312,7 @@ def test_relative_markdown_images_point_at_the_notebook_folder(tmp_path):
     (tmp_path / "sketch.png").write_bytes(b"png")
     cell = new_markdown_cell('![proof](sketch.png) <img src="sketch.png"> ![web](https://example.org/a.png)')
     cell.metadata["hw4_dir"] = str(tmp_path)
-    out = _run(pdf.LocalImagesPreprocessor(), cell).source
+    out = _run(pdf_html.LocalImagesPreprocessor(), cell).source
     uri = (tmp_path / "sketch.png").resolve().as_uri()
     assert out.count(uri) == 2 and "https://example.org/a.png" in out and "hw4_dir" not in cell.metadata
 
@@ -326,7 +325,7 @@ def test_written_question_answered_only_when_placeholder_replaced(tmp_path):
                  new_markdown_cell("## Q1.2 Relative pose"), new_markdown_cell("YOUR ANSWER HERE")]
         cells[1].metadata["nbgrader"] = {"solution": True}
         nbformat.write(new_notebook(cells=cells), tmp_path / "q1_proofs.ipynb")
-        return {s.question.id: s.state for s in pdf.question_status([inspect_notebook(tmp_path / "q1_proofs.ipynb")])}
+        return {s.question.id: s.state for s in cover.question_status([inspect_notebook(tmp_path / "q1_proofs.ipynb")])}
 
     assert status("YOUR ANSWER HERE")["Q1.1"] == "not answered"
     done = status("Since the cameras fixate the same point, $f_{33} = 0$.")
@@ -338,15 +337,15 @@ def test_find_browser_reports_how_to_install(tmp_path, monkeypatch):
     monkeypatch.setenv("PATH", str(tmp_path))
     monkeypatch.setenv("PLAYWRIGHT_BROWSERS_PATH", str(tmp_path / "none"))
     monkeypatch.delenv("HW4_BROWSER", raising=False)
-    monkeypatch.setattr(pdf, "MAC_BROWSERS", ())
-    with pytest.raises(pdf.BrowserNotFoundError, match="apt-get install chromium") as err:
-        pdf.find_browser()
+    monkeypatch.setattr(browser, "MAC_BROWSERS", ())
+    with pytest.raises(browser.BrowserNotFoundError, match="apt-get install chromium") as err:
+        browser.find_browser()
     assert "playwright install chromium" in str(err.value)
-    with pytest.raises(pdf.BrowserNotFoundError, match="browser"):
-        pdf.find_browser(str(tmp_path / "no-such-chrome"))
-    monkeypatch.setattr(pdf, "_in_colab", lambda: False)
-    with pytest.raises(pdf.BrowserNotFoundError):
-        pdf.ensure_browser()  # outside Colab nothing is installed behind the student's back
+    with pytest.raises(browser.BrowserNotFoundError, match="browser"):
+        browser.find_browser(str(tmp_path / "no-such-chrome"))
+    monkeypatch.setattr(browser, "in_colab", lambda: False)
+    with pytest.raises(browser.BrowserNotFoundError):
+        browser.ensure_browser()  # outside Colab nothing is installed behind the student's back
 
 
 def test_find_browser_finds_a_playwright_install(tmp_path, monkeypatch):
@@ -357,7 +356,7 @@ def test_find_browser_finds_a_playwright_install(tmp_path, monkeypatch):
     monkeypatch.setenv("PATH", str(tmp_path / "empty"))
     monkeypatch.setenv("PLAYWRIGHT_BROWSERS_PATH", str(tmp_path))
     monkeypatch.delenv("HW4_BROWSER", raising=False)
-    assert pdf.find_browser() == str(chrome)
+    assert browser.find_browser() == str(chrome)
 
 
 def test_find_mathjax_honours_the_environment(tmp_path, monkeypatch):
@@ -366,4 +365,4 @@ def test_find_mathjax_honours_the_environment(tmp_path, monkeypatch):
     (tmp_path / "MathJax.js").write_text("")
     (tmp_path / "config" / "TeX-AMS-MML_HTMLorMML-full.js").write_text("")
     monkeypatch.setenv("HW4_MATHJAX", str(tmp_path / "MathJax.js"))
-    assert pdf.find_mathjax() == tmp_path
+    assert mathjax.find_mathjax() == tmp_path

@@ -9,7 +9,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from kit import pdf
+from handin import pdf
 from core.manifest import NOTEBOOKS, QUESTIONS
 
 from test_pdf import _browser_or_skip, _mathjax_or_skip, _poppler_or_skip, first_line, pages_of

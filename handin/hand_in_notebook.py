@@ -2,7 +2,7 @@
 
 Each Colab notebook runs on its own machine, so no single notebook can see the others there; the
 hand-in notebook asks for the saved .ipynb files (File > Download in each), then does what
-``python -m kit pdf`` does.  Locally it takes the notebooks beside it.  ``python -m kit
+``python -m handin pdf`` does.  Locally it takes the notebooks beside it.  ``python -m kit
 notebooks`` writes it as notebooks/hand_in.ipynb.
 """
 
@@ -44,7 +44,7 @@ if IN_COLAB and not Path("hw4-kit").is_dir():
 _SETUP = """\
 STUDENT_NAME = ""  # your name for the cover; left empty, the STUDENT_NAME of your notebooks is used
 kit = Path("hw4-kit").resolve() if IN_COLAB else next(
-    (p for p in [Path.cwd(), *Path.cwd().parents] if (p / "kit" / "pdf.py").is_file()), None)
+    (p for p in [Path.cwd(), *Path.cwd().parents] if (p / "handin" / "pdf.py").is_file()), None)
 if kit is not None and str(kit) not in sys.path:
     sys.path.insert(0, str(kit))
 folder = Path.cwd()
@@ -60,12 +60,13 @@ if IN_COLAB:
 print(sorted(p.name for p in folder.glob("*.ipynb")))"""
 
 _BUILD = """\
-from kit.bundle import build_bundle
-from kit.pdf import build_pdf, ensure_browser
+from handin.browser import ensure_browser
+from handin.code_zip import build_code_zip
+from handin.pdf import build_pdf
 
 ensure_browser()  # finds Chromium; in Colab it installs one the first time (a minute or two)
 pdf = build_pdf(folder, folder / "hw4.pdf", name=STUDENT_NAME or None)
-report = build_bundle(folder, folder / "hw4_code.zip")
+report = build_code_zip(folder, folder / "hw4_code.zip")
 print("PDF:", pdf)
 print(report)
 if IN_COLAB:

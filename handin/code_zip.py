@@ -1,10 +1,10 @@
-"""The code bundle a student hands to the autograder, and what their notebooks define.
+"""The code zip a student hands to the autograder, and what their notebooks define.
 
-The bundle is a zip of the homework notebooks (``<stem>.ipynb`` at the top level, one per
+The code zip is a zip of the homework notebooks (``<stem>.ipynb`` at the top level, one per
 manifest notebook found) plus, when asked for explicitly or sitting beside them, small ``.py``
-helper modules.  Building it never runs student code: notebooks are read with nbformat and
+helper modules.  Writing it never runs student code: notebooks are read with nbformat and
 their code cells parsed with :mod:`ast`, so a notebook that would hang, crash or delete files
-is still checked.  Problems come back as a list of warnings in a :class:`BundleReport`, never
+is still checked.  Problems come back as a list of warnings in a :class:`CodeZipReport`, never
 as an exception, because a half-finished homework must still be submittable.
 
 The same inspection (:func:`inspect_notebook`) tells the PDF cover which questions look
@@ -29,11 +29,11 @@ from core.notebook import Cell, definitions, notebook_stem, parse_cells
 __all__ = [
     "NotebookInfo",
     "Selection",
-    "BundleReport",
+    "CodeZipReport",
     "select_notebooks",
     "inspect_notebook",
     "student_name",
-    "build_bundle",
+    "build_code_zip",
 ]
 
 # A helper module beside the notebooks is welcome, a data file or a stray video is not.
@@ -85,8 +85,8 @@ class NotebookInfo:
 
 
 @dataclass
-class BundleReport:
-    """The result of :func:`build_bundle`.
+class CodeZipReport:
+    """The result of :func:`build_code_zip`.
 
     zip_path: the zip written, or None when nothing could be bundled; included: archive names;
     size_bytes: size of the zip; max_bytes: the cap; missing_notebooks: manifest stems not found;
@@ -323,7 +323,7 @@ def _safe_arcname(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._ ()-]", "_", name)
 
 
-def build_bundle(folder_or_notebooks, out_zip, *, max_mb: float = 50.0) -> BundleReport:
+def build_code_zip(folder_or_notebooks, out_zip, *, max_mb: float = 50.0) -> CodeZipReport:
     """Zip the student's notebooks for the autograder and check what they define.
 
     Parameters
@@ -339,7 +339,7 @@ def build_bundle(folder_or_notebooks, out_zip, *, max_mb: float = 50.0) -> Bundl
 
     Returns
     -------
-    BundleReport
+    CodeZipReport
         ``report.warnings`` lists what is missing: notebooks, functions not defined or still
         stubs, cells with syntax errors, files left out, an oversize zip. Nothing raises for those.
 
@@ -380,7 +380,7 @@ def build_bundle(folder_or_notebooks, out_zip, *, max_mb: float = 50.0) -> Bundl
                 continue
             zf.write(p, arcname)
             included.append(arcname)
-    return BundleReport(
+    return CodeZipReport(
         zip_path=out_zip,
         included=included,
         size_bytes=out_zip.stat().st_size,
@@ -391,3 +391,22 @@ def build_bundle(folder_or_notebooks, out_zip, *, max_mb: float = 50.0) -> Bundl
         skipped=sel.skipped,
         problems=[msg for i in infos for msg in i.problems],
     )
+
+
+def add_arguments(p) -> None:
+    """The arguments of ``python -m handin zip [NOTEBOOK_DIR or files...] --out hw4_code.zip``."""
+    p.add_argument("notebooks", nargs="*", type=Path,
+                   help="a folder of notebooks or notebook files (default: ./notebooks if present, else .)")
+    p.add_argument("--out", type=Path, default=Path("hw4_code.zip"), help="zip to write (default hw4_code.zip)")
+    p.add_argument("--max-mb", type=float, default=50.0, help="size cap of the zip in MB (default 50)")
+
+
+def main(args) -> int:
+    """Run ``python -m handin zip``: 0 everything in, 1 something missing or the zip too large."""
+    local = Path("notebooks")
+    source = args.notebooks or (local if local.is_dir() and any(local.glob("q*.ipynb")) else Path("."))
+    if isinstance(source, list) and len(source) == 1:
+        source = source[0]
+    report = build_code_zip(source, args.out, max_mb=args.max_mb)
+    print(report)
+    return 0 if report.ok else 1

@@ -1,4 +1,4 @@
-"""The code bundle: what goes into the zip, what is reported missing, and that nothing runs."""
+"""The code zip: what goes into the zip, what is reported missing, and that nothing runs."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_output
 
-from kit.bundle import build_bundle, inspect_notebook, select_notebooks, student_name
+from handin.code_zip import build_code_zip, inspect_notebook, select_notebooks, student_name
 from core.manifest import NOTEBOOKS, functions_of_notebook
 
 
@@ -44,7 +44,7 @@ def complete(tmp_path):
 def test_complete_folder_is_ok_and_zips_every_notebook(complete, tmp_path):
     (complete / "helpers.py").write_text("def helper():\n    return 1\n")
     (complete / "points.npz").write_bytes(b"\0" * 2048)
-    report = build_bundle(complete, tmp_path / "out" / "hw4_code.zip")
+    report = build_code_zip(complete, tmp_path / "out" / "hw4_code.zip")
     assert report.ok, report.warnings
     assert report.warnings == []
     with zipfile.ZipFile(report.zip_path) as zf:
@@ -54,7 +54,7 @@ def test_complete_folder_is_ok_and_zips_every_notebook(complete, tmp_path):
 
 
 def test_zipped_notebook_is_byte_identical(complete, tmp_path):
-    report = build_bundle(complete, tmp_path / "b.zip")
+    report = build_code_zip(complete, tmp_path / "b.zip")
     with zipfile.ZipFile(report.zip_path) as zf:
         for stem in NOTEBOOKS:
             assert zf.read(f"{stem}.ipynb") == (complete / f"{stem}.ipynb").read_bytes()
@@ -65,7 +65,7 @@ def test_missing_function_and_stub_are_reported_not_raised(complete, tmp_path):
     names = functions_of_notebook(stem)
     absent, stubbed, kept = names[0], names[1], names[2:]
     write_notebook(complete, stem, _stub(stubbed), *[_implemented(f) for f in kept])
-    report = build_bundle(complete, tmp_path / "b.zip")
+    report = build_code_zip(complete, tmp_path / "b.zip")
     assert not report.ok
     assert report.missing_functions == {stem: [absent]}
     assert report.stub_functions == {stem: [stubbed]}
@@ -77,7 +77,7 @@ def test_missing_function_and_stub_are_reported_not_raised(complete, tmp_path):
 def test_missing_notebook_is_reported(complete, tmp_path):
     gone = NOTEBOOKS[-1]
     (complete / f"{gone}.ipynb").unlink()
-    report = build_bundle(complete, tmp_path / "b.zip")
+    report = build_code_zip(complete, tmp_path / "b.zip")
     assert report.missing_notebooks == [gone]
     assert any(gone in w for w in report.warnings)
     assert f"{gone}.ipynb" not in zipfile.ZipFile(report.zip_path).namelist()
@@ -86,7 +86,7 @@ def test_missing_notebook_is_reported(complete, tmp_path):
 def test_misnamed_copy_is_left_out_with_a_rename_hint(complete, tmp_path):
     stem = NOTEBOOKS[2]
     (complete / f"{stem}.ipynb").rename(complete / f"{stem}-Copy1.ipynb")
-    report = build_bundle(complete, tmp_path / "b.zip")
+    report = build_code_zip(complete, tmp_path / "b.zip")
     assert report.missing_notebooks == [stem]
     reasons = {p.name: why for p, why in report.skipped}
     assert f"rename it {stem}.ipynb" in reasons[f"{stem}-Copy1.ipynb"]
@@ -97,11 +97,11 @@ def test_size_cap_flags_an_oversize_zip(complete, tmp_path):
     noise = rng.integers(0, 2**63, size=40_000).astype(str)  # incompressible text, about 0.7 MB
     write_notebook(complete, NOTEBOOKS[1], *[_implemented(f) for f in functions_of_notebook(NOTEBOOKS[1])],
                    outputs=[new_output("stream", name="stdout", text=" ".join(noise))])
-    small = build_bundle(complete, tmp_path / "small.zip", max_mb=0.25)
+    small = build_code_zip(complete, tmp_path / "small.zip", max_mb=0.25)
     assert small.too_large and not small.ok
     assert small.size_bytes > 0.25 * 2**20
     assert "limit" in small.warnings[0]
-    roomy = build_bundle(complete, tmp_path / "roomy.zip", max_mb=5)
+    roomy = build_code_zip(complete, tmp_path / "roomy.zip", max_mb=5)
     assert not roomy.too_large and roomy.ok
 
 
@@ -111,7 +111,7 @@ def test_stray_large_or_foreign_files_are_refused(complete, tmp_path):
     data = complete / "frames.npz"
     data.write_bytes(b"\0" * 4096)
     listed = [complete / f"{s}.ipynb" for s in NOTEBOOKS] + [big_helper, data]
-    report = build_bundle(listed, tmp_path / "b.zip")
+    report = build_code_zip(listed, tmp_path / "b.zip")
     names = zipfile.ZipFile(report.zip_path).namelist()
     assert "big_helper.py" not in names and "frames.npz" not in names
     skipped = {p.name: why for p, why in report.skipped}
@@ -121,7 +121,7 @@ def test_stray_large_or_foreign_files_are_refused(complete, tmp_path):
 def test_nothing_is_executed(tmp_path):
     marker = tmp_path / "ran.txt"
     write_notebook(tmp_path, "q2_eightpoint", f"open({str(marker)!r}, 'w').write('x')\n" + _implemented("eightpoint"))
-    report = build_bundle(tmp_path, tmp_path / "b.zip")
+    report = build_code_zip(tmp_path, tmp_path / "b.zip")
     assert not marker.exists()
     assert "q2_eightpoint" not in report.missing_functions
 
@@ -129,7 +129,7 @@ def test_nothing_is_executed(tmp_path):
 def test_syntax_error_and_bad_json_are_problems_not_crashes(tmp_path):
     write_notebook(tmp_path, "q2_eightpoint", "def eightpoint(:\n    pass")
     (tmp_path / "q4_temple_3d.ipynb").write_text("{not json")
-    report = build_bundle(tmp_path, tmp_path / "b.zip")
+    report = build_code_zip(tmp_path, tmp_path / "b.zip")
     text = "\n".join(report.problems)
     assert "syntax error" in text and "q4_temple_3d.ipynb" in text
     assert report.missing_functions["q2_eightpoint"] == ["eightpoint"]
@@ -155,12 +155,12 @@ def test_student_name_skips_placeholders(tmp_path):
 
 def test_bad_arguments_raise_naming_the_argument(tmp_path):
     with pytest.raises(ValueError, match="folder_or_notebooks"):
-        build_bundle([tmp_path / "nope.ipynb"], tmp_path / "b.zip")
+        build_code_zip([tmp_path / "nope.ipynb"], tmp_path / "b.zip")
     with pytest.raises(ValueError, match="folder_or_notebooks"):
-        build_bundle(tmp_path, tmp_path / "b.zip")  # empty folder
+        build_code_zip(tmp_path, tmp_path / "b.zip")  # empty folder
     write_notebook(tmp_path, "q2_eightpoint")
     with pytest.raises(ValueError, match="max_mb"):
-        build_bundle(tmp_path, tmp_path / "b.zip", max_mb=0)
+        build_code_zip(tmp_path, tmp_path / "b.zip", max_mb=0)
 
 
 def test_explicit_list_keeps_manifest_order_then_extras(tmp_path):
