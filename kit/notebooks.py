@@ -59,6 +59,7 @@ from core.manifest import (
     Question,
     functions_of_notebook,
 )
+from core.notebook import METADATA_KEY
 
 __all__ = [
     "ANSWER_PLACEHOLDER",
@@ -93,7 +94,6 @@ NBGRADER_STUB = "# YOUR CODE HERE\nraise NotImplementedError()"
 ANSWER_PLACEHOLDER = "YOUR ANSWER HERE"
 PLACEHOLDER_REPO = "https://github.com/YOUR-ORG/YOUR-HW4-RELEASE"
 BEGIN, END = "### BEGIN SOLUTION", "### END SOLUTION"
-METADATA_KEY = "hw4_kit"
 
 _BARE_HEADING = re.compile(r"^(#{1,3})\s*(Q\d+(?:\.\d+)?)\s*$")
 _FENCE = re.compile(r"^```(python|\{(\w+)\})[ \t]*(.*)$")
@@ -536,76 +536,109 @@ def _bound_names(text: str, where: str) -> set[str]:
     return out
 
 
+def _markdown_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+    m = _BARE_HEADING.match(block.text.splitlines()[0])
+    if not m:
+        return [_markdown(block.text)]
+    hashes, qid = m.groups()
+    q = next((q for q in QUESTIONS if q.id == qid), None)
+    if q is None or q.notebook != st.stem:
+        raise SourceError(f"{where}: heading {qid} is not a question of {st.stem} in core.manifest")
+    if qid in st.seen_questions:
+        raise SourceError(f"{where}: heading {qid} appears twice")
+    st.question = q
+    st.seen_questions.append(qid)
+    rest = block.text.split("\n", 1)[1] if "\n" in block.text else ""
+    return [_markdown(_heading_text(q, hashes) + ("\n" + rest if rest else ""))]
+
+
+def _colab_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+    return [_markdown(_colab_text(st.stem, st.settings))]
+
+
+def _setup_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+    if st.code_cells:
+        raise SourceError(f"{where}: the setup cell must be the first code cell")
+    st.setup_seen = True
+    return [_code(_setup_text(st.settings))]
+
+
+def _python_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+    text, marked = _clear_regions(block.text, st.variant, where)
+    st.defined |= _bound_names(block.text.replace(BEGIN, "").replace(END, ""), where)
+    meta = {"tags": list(block.args)} if block.args else {}
+    if marked and st.variant == "nbgrader":
+        meta.update(_nbgrader_meta(f"{st.stem}_cell{st.code_cells}", solution=True, grade=False, locked=False))
+    return [_code(text, **meta)]
+
+
+def _solution_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+    (name,) = _one_arg(block, where)
+    if st.question is None or name not in st.question.functions:
+        raise SourceError(f"{where}: {name} is not a function of the question above it "
+                          f"({st.question.id if st.question else 'no question yet'})")
+    ext = extract_function(name, st.solutions_dir)
+    missing = [n for n in ext.needs if n not in st.defined]
+    if missing:
+        raise SourceError(f"{where}: {name} calls {missing}, which no earlier cell of {st.stem} defines "
+                          "(add a solution cell, or a from_notebook line, before it)")
+    st.defined.add(name)
+    st.solutions.append(name)
+    meta = _nbgrader_meta(name, solution=True, grade=False, locked=False) if st.variant == "nbgrader" else {}
+    return [_code(_solution_text(ext, st.variant, st.emitted_helpers), **meta)]
+
+
+def _check_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+    (name,) = _one_arg(block, where)
+    if name not in st.solutions:
+        raise SourceError(f"{where}: check of {name} before (or without) its solution cell")
+    module = extract_function(name, st.solutions_dir).module
+    cell = _code(_check_text(name, module, st.variant))
+    st.graded.setdefault(st.question.id, []).append((cell, f"check_{name}", None, False))
+    return [cell]
+
+
+def _answer_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+    qid, *opts = block.args or ("",)
+    if st.question is None or qid != st.question.id:
+        raise SourceError(f"{where}: answer for {qid!r} under the heading of "
+                          f"{st.question.id if st.question else 'no question'}")
+    if opts == ["ungraded"]:
+        # Read from the PDF only: nbgrader has no ungraded markdown answer, so its source
+        # gets the placeholder too (a plain cell there would hand the answer out).
+        return [_markdown(block.text if st.variant == "key" else ANSWER_PLACEHOLDER)]
+    points = _points_option(opts, where)
+    cell = _markdown(ANSWER_PLACEHOLDER if st.variant == "student" else block.text)
+    st.graded.setdefault(qid, []).append((cell, f"answer_{qid.replace('.', '_')}", points, True))
+    return [cell]
+
+
+# Block kind -> its builder.  The blocks after the setup cell (all but these three) must follow it,
+# and each counts as a cell of the notebook's body (``st.code_cells``, used in nbgrader ids).
+_BLOCKS = {
+    "markdown": _markdown_block,
+    "colab": _colab_block,
+    "setup": _setup_block,
+    "python": _python_block,
+    "solution": _solution_block,
+    "check": _check_block,
+    "answer": _answer_block,
+}
+_BEFORE_SETUP = ("markdown", "colab", "setup")
+
+
 def _block_to_cells(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
-    v = block.kind
-    if v == "markdown":
-        m = _BARE_HEADING.match(block.text.splitlines()[0])
-        if not m:
-            return [_markdown(block.text)]
-        hashes, qid = m.groups()
-        q = next((q for q in QUESTIONS if q.id == qid), None)
-        if q is None or q.notebook != st.stem:
-            raise SourceError(f"{where}: heading {qid} is not a question of {st.stem} in core.manifest")
-        if qid in st.seen_questions:
-            raise SourceError(f"{where}: heading {qid} appears twice")
-        st.question = q
-        st.seen_questions.append(qid)
-        rest = block.text.split("\n", 1)[1] if "\n" in block.text else ""
-        return [_markdown(_heading_text(q, hashes) + ("\n" + rest if rest else ""))]
-    if v == "colab":
-        return [_markdown(_colab_text(st.stem, st.settings))]
-    if v == "setup":
-        if st.code_cells:
-            raise SourceError(f"{where}: the setup cell must be the first code cell")
-        st.setup_seen = True
+    if block.kind not in _BLOCKS:
+        raise SourceError(f"{where}: unknown block kind {block.kind!r} "
+                          "(expected python, colab, setup, solution, check, answer)")
+    if block.kind not in _BEFORE_SETUP:
+        if not st.setup_seen:
+            raise SourceError(f"{where}: a code cell comes before the {{setup}} cell")
         st.code_cells += 1
-        return [_code(_setup_text(st.settings))]
-    if not st.setup_seen:
-        raise SourceError(f"{where}: a code cell comes before the {{setup}} cell")
-    st.code_cells += 1
-    if v == "python":
-        text, marked = _clear_regions(block.text, st.variant, where)
-        st.defined |= _bound_names(block.text.replace(BEGIN, "").replace(END, ""), where)
-        meta = {"tags": list(block.args)} if block.args else {}
-        if marked and st.variant == "nbgrader":
-            meta.update(_nbgrader_meta(f"{st.stem}_cell{st.code_cells}", solution=True, grade=False, locked=False))
-        return [_code(text, **meta)]
-    if v == "solution":
-        (name,) = _one_arg(block, where)
-        if st.question is None or name not in st.question.functions:
-            raise SourceError(f"{where}: {name} is not a function of the question above it "
-                              f"({st.question.id if st.question else 'no question yet'})")
-        ext = extract_function(name, st.solutions_dir)
-        missing = [n for n in ext.needs if n not in st.defined]
-        if missing:
-            raise SourceError(f"{where}: {name} calls {missing}, which no earlier cell of {st.stem} defines "
-                              "(add a solution cell, or a from_notebook line, before it)")
-        st.defined.add(name)
-        st.solutions.append(name)
-        meta = _nbgrader_meta(name, solution=True, grade=False, locked=False) if st.variant == "nbgrader" else {}
-        return [_code(_solution_text(ext, st.variant, st.emitted_helpers), **meta)]
-    if v == "check":
-        (name,) = _one_arg(block, where)
-        if name not in st.solutions:
-            raise SourceError(f"{where}: check of {name} before (or without) its solution cell")
-        module = extract_function(name, st.solutions_dir).module
-        cell = _code(_check_text(name, module, st.variant))
-        st.graded.setdefault(st.question.id, []).append((cell, f"check_{name}", None, False))
-        return [cell]
-    if v == "answer":
-        qid, *opts = block.args or ("",)
-        if st.question is None or qid != st.question.id:
-            raise SourceError(f"{where}: answer for {qid!r} under the heading of "
-                              f"{st.question.id if st.question else 'no question'}")
-        if opts == ["ungraded"]:
-            # Read from the PDF only: nbgrader has no ungraded markdown answer, so its source
-            # gets the placeholder too (a plain cell there would hand the answer out).
-            return [_markdown(block.text if st.variant == "key" else ANSWER_PLACEHOLDER)]
-        points = _points_option(opts, where)
-        cell = _markdown(ANSWER_PLACEHOLDER if st.variant == "student" else block.text)
-        st.graded.setdefault(qid, []).append((cell, f"answer_{qid.replace('.', '_')}", points, True))
-        return [cell]
-    raise SourceError(f"{where}: unknown block kind {v!r} (expected python, colab, setup, solution, check, answer)")
+    cells = _BLOCKS[block.kind](block, st, where)
+    if block.kind == "setup":
+        st.code_cells += 1  # counted after its own check that it is the first
+    return cells
 
 
 def _one_arg(block: Block, where: str) -> tuple[str]:
