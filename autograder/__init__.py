@@ -1,10 +1,17 @@
-"""The autograder: hidden tests on unseen scenes, student code run only in a sandbox.
+"""The autograder: hidden checks (pytest tests) on unseen scenes, student code run only in a sandbox.
+
+Layout: ``sandbox/`` (isolation and the session protocol with the child), ``submission.py``
+(reading notebooks), ``hidden/`` (the hidden checks as pytest tests, their plugin and inputs),
+``tests/`` (judges not yet moved to ``judging/``), ``grade.py`` (one submission: a pytest run),
+``batch.py`` (many, resumable), ``gradebook.py`` (grades.csv), ``key.py`` (the answer-key
+submission), ``results.py`` (the results model), ``config.py``, ``gradescope.py``,
+``nbgrader_course.py`` and the command line ``__main__.py``.
 
 Public entry points (imported lazily, so that ``import autograder`` stays cheap):
 
 - :func:`grade_submission` (``autograder.grade``): one submission -> ``SubmissionResult``;
-- :func:`grade_batch`: many submissions in parallel into an output folder;
-- :func:`build_hidden_inputs` (``autograder.tests``): the hidden inputs of a ``GradingConfig``;
+- :func:`grade_batch` (``autograder.batch``): many submissions in parallel into an output folder;
+- :func:`build_hidden_inputs` (``autograder.hidden.inputs``): the hidden inputs of a ``GradingConfig``;
 - :func:`load_config` (``autograder.config``);
 - :func:`main` (``autograder.__main__``): the command line, ``python -m autograder``.
 """
@@ -14,7 +21,7 @@ from __future__ import annotations
 __all__ = ["build_hidden_inputs", "grade_batch", "grade_submission", "load_config", "main"]
 
 _WHERE = {
-    "grade_submission": "grade", "grade_batch": "grade", "build_hidden_inputs": "tests",
+    "grade_submission": "grade", "grade_batch": "batch", "build_hidden_inputs": "hidden.inputs",
     "load_config": "config", "main": "__main__",
 }
 

@@ -119,6 +119,13 @@ class GradingConfig:
         path = self.official_data if self.official_data is not None else course_data_dir()
         return path if path is not None and (Path(path) / "temple" / "some_corresp.npz").is_file() else None
 
+    def to_dict(self) -> dict:
+        """The settings as a config file's JSON object (``load_config`` reads it back; secret included)."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source"}
+        out["temples"] = [dataclasses.asdict(t) for t in self.temples]
+        out["official_data"] = str(self.official_data) if self.official_data is not None else None
+        return out
+
     def fingerprint(self) -> str:
         """A digest of everything that changes grades (secret included, never shown in clear)."""
         fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source"}

@@ -325,7 +325,7 @@ def _grade(path: Path, root: Path) -> SubmissionResult:
     from .grade import grade_submission
     from .sandbox import Sandbox
     from .submission import SubmissionError, load_submission
-    from .tests import build_hidden_inputs
+    from .hidden.inputs import build_hidden_inputs
 
     try:
         # Cheap, so an unreadable upload is told so at once, before scenes and sandbox are made.

@@ -236,7 +236,7 @@ def _grade_folder(folder: Path, root: Path) -> dict[str, QuestionScore]:
     from .config import load_config
     from .grade import grade_submission
     from .sandbox import Sandbox
-    from .tests import build_hidden_inputs
+    from .hidden.inputs import build_hidden_inputs
 
     bundled = root / CONFIG_NAME
     # In a course folder only its own settings count; in the kit, the instructor's environment.

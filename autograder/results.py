@@ -27,7 +27,7 @@ import os
 import re
 import tempfile
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from core.manifest import QUESTIONS, question
@@ -174,7 +174,6 @@ class SubmissionResult:
     notes: tuple[str, ...] = ()
     failure: str | None = None
     execution_time: float | None = None
-    extra: dict = field(default_factory=dict)
 
     @classmethod
     def failed(cls, reason: str, *, student_id: str | None = None, isolation: dict | None = None,
@@ -194,6 +193,27 @@ class SubmissionResult:
         """Points of the autograded questions, extra credit excluded."""
         return sum(q.max_score for q in self.questions if not q.extra_credit)
 
+    # -- the model as JSON (how a grading process hands its result to the grader) -------------
+
+    def to_dict(self) -> dict:
+        """Plain JSON data of the whole result (``from_dict`` reads it back)."""
+        return {
+            "questions": [{"id": q.id, "title": q.title, "extra_credit": q.extra_credit, "by_hand": q.by_hand,
+                           "notes": list(q.notes), "tests": [asdict(t) for t in q.tests]} for q in self.questions],
+            "student_id": self.student_id, "isolation": self.isolation, "notes": list(self.notes),
+            "failure": self.failure, "execution_time": self.execution_time,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> SubmissionResult:
+        """The result written by ``to_dict`` (every test re-validated)."""
+        questions = tuple(
+            QuestionResult(str(q["id"]), str(q["title"]), tuple(TestResult(**t) for t in q["tests"]),
+                           bool(q["extra_credit"]), bool(q["by_hand"]), tuple(q["notes"]))
+            for q in data["questions"])
+        return cls(questions, data.get("student_id"), data.get("isolation"), tuple(data.get("notes", ())),
+                   data.get("failure"), data.get("execution_time"))
+
     # -- Gradescope -------------------------------------------------------------------------
 
     def to_gradescope(self) -> dict:
@@ -205,7 +225,7 @@ class SubmissionResult:
             "visibility": "visible",
             "stdout_visibility": "hidden",  # the grader's log is for staff only
             "tests": [],
-            "extra_data": {"isolation": self.isolation, "failure": self.failure, **self.extra},
+            "extra_data": {"isolation": self.isolation, "failure": self.failure},
         }
         if self.execution_time is not None:
             out["execution_time"] = round(float(self.execution_time), 3)

@@ -2,10 +2,16 @@
 
 Arguments travel from the grader to the sandboxed child and results travel back as JSON text.
 Everything that arrives from the child is untrusted, so the decoder accepts only plain data and
-bounds its size; nothing is ever unpickled.
+bounds its size; nothing is ever unpickled.  This module is the one encoder of both sides: the
+grader imports it from ``core`` and so does the sandboxed child (``autograder/sandbox/child.py``),
+which finds ``core`` among the kit packages the sandbox exposes.  It uses only the standard
+library and numpy.
 
-The format (the child, ``autograder/child.py``, writes the same one with its own copy of the
-encoder, because it must not import the autograder):
+``encode`` is strict (the grader's own arguments: anything unexpected is a grader bug);
+``encode_returned`` is what the child applies to whatever student code returned: objects that are
+not plain data are converted to a base-class float64 array when they can be, else refused.
+
+The format:
 
 =====================================  ===========================================================
 Python value                           JSON
@@ -38,12 +44,14 @@ import numpy.lib.format as npy_format
 __all__ = [
     "ALLOWED_DTYPES",
     "Limits",
+    "Unsupported",
     "WireError",
     "decode",
     "decode_array",
     "dumps",
     "encode",
     "encode_array",
+    "encode_returned",
     "loads",
     "parse_json",
 ]
@@ -57,6 +65,10 @@ ALLOWED_DTYPES: frozenset[np.dtype] = frozenset(
 )
 
 _NONFINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
+# Bound at import, before any student code runs in the child: a student who replaces numpy.save
+# or numpy.ndarray later changes nothing here.
+_np_save = np.save
+_ndarray = np.ndarray
 
 
 class WireError(ValueError):
@@ -146,6 +158,78 @@ def encode(value, *, _depth: int = 0):
 def dumps(value) -> str:
     """Strict JSON text of ``encode(value)`` (no NaN literals)."""
     return json.dumps(encode(value), allow_nan=False, separators=(",", ":"))
+
+
+# --------------------------------------------------------------------------------------------
+# encoding what student code returned (in the sandboxed child; lenient, then checked by decode)
+
+
+class Unsupported(WireError):
+    """A returned value that is not plain data and cannot be converted to a float64 array."""
+
+
+def _npy_text(arr) -> str:
+    buf = io.BytesIO()
+    _np_save(buf, arr, allow_pickle=False)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _as_float_array(value):
+    # The one conversion allowed for objects that are not plain data: whatever they claim to be,
+    # what crosses is a base-class float64 array built from them here.
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except Exception:  # noqa: BLE001 - any failure means: not convertible
+        arr = None
+    if type(arr) is not _ndarray or arr.dtype != np.float64:
+        raise Unsupported(
+            f"returned a {type(value).__name__}, which is not plain data (numpy arrays, numbers, strings, "
+            "lists, tuples or dicts of those) and could not be converted to a float64 array")
+    return {"__ndarray__": _npy_text(np.array(arr, dtype=np.float64, copy=True))}
+
+
+def encode_returned(value, _depth: int = 0):
+    """JSON-compatible form of a value returned by untrusted code (the child's encoder).
+
+    Like ``encode``, but subclasses of list, tuple and dict are read through the base class's own
+    iteration (an overridden ``__iter__`` cannot change what is sent), numpy scalars become Python
+    numbers, arrays of other dtypes and any other object become float64 arrays when
+    ``numpy.asarray(value, float64)`` gives a base-class array.
+
+    Raises
+    ------
+    Unsupported
+        For anything else, dict keys that are not str, or nesting deeper than ``Limits().max_depth``.
+    """
+    if _depth > Limits.max_depth:
+        raise Unsupported(f"returned data nested deeper than {Limits.max_depth} levels")
+    kind = type(value)
+    if value is None or kind is bool or kind is int or kind is str:
+        return value
+    if kind is float:
+        return value if math.isfinite(value) else {"__float__": repr(value)}
+    if kind is _ndarray:
+        if value.dtype.kind in "biufc" and value.dtype.newbyteorder("=") in ALLOWED_DTYPES:
+            return {"__ndarray__": _npy_text(value)}
+        return _as_float_array(value)
+    if kind is np.bool_:
+        return bool(value)
+    if isinstance(value, np.integer) and kind.__module__ == "numpy":
+        return int(value)
+    if isinstance(value, np.floating) and kind.__module__ == "numpy":
+        return encode_returned(float(value), _depth)
+    if kind is complex or (isinstance(value, np.complexfloating) and kind.__module__ == "numpy"):
+        return {"__ndarray__": _npy_text(np.asarray(value, dtype=np.complex128))}
+    if isinstance(value, list):
+        return [encode_returned(v, _depth + 1) for v in list.__iter__(value)]
+    if isinstance(value, tuple):
+        return {"__tuple__": [encode_returned(v, _depth + 1) for v in tuple.__iter__(value)]}
+    if isinstance(value, dict):
+        items = list(dict.items(value))
+        if not all(type(k) is str for k, _ in items):
+            raise Unsupported("returned a dict whose keys are not all strings")
+        return {"__dict__": {k: encode_returned(v, _depth + 1) for k, v in items}}
+    return _as_float_array(value)
 
 
 # --------------------------------------------------------------------------------------------

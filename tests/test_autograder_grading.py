@@ -4,8 +4,8 @@ The corpus (tests/corpus/) holds one submission per expected outcome, built from
 or the untouched student notebooks by one mutation each; its names say what must happen.  All
 of it is graded once, as one batch of two workers sharing a sandbox each, with the small
 settings of ``quick_config`` and tight resource limits.  The judging code is also exercised
-without a sandbox, by running the in-sandbox helpers in this process on the reference
-functions (fast, and it isolates the checks from the sandbox).
+without a sandbox, by calling the reference functions in this process through ``LocalStudent``
+(fast, and it isolates the checks from the sandbox).
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ import corpus
 import numpy as np
 import pytest
 
-from autograder import wire
 from autograder.config import (
     DEV_SECRET,
     GradingConfig,
@@ -29,16 +28,15 @@ from autograder.config import (
     load_config,
     quick_config,
 )
-from autograder.grade import (
-    grade_batch,
-    job_units,
-    submission_digest,
-    write_key_submission,
-)
+from autograder.batch import grade_batch, submission_digest
+from autograder.hidden.inputs import MODULES, build_hidden_inputs
+from autograder.hidden.legacy import HelperOutcome, run_calls
+from autograder.hidden.plugin import LocalStudent
+from autograder.key import write_key_submission
 from autograder.results import autograded_question_ids
-from autograder.sandbox import CallOutcome, ResourceLimits, Sandbox, _live_pids_of_uid
+from autograder.sandbox import ResourceLimits, Sandbox, live_pids_of_uid
 from autograder.submission import load_submission
-from autograder.tests import HELPER_UNIT, all_calls, build_hidden_inputs, judge_all
+from core import wire
 from core.manifest import NOTEBOOKS, question
 
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
@@ -191,7 +189,7 @@ def test_no_process_outlives_the_batch(batch):
     uid = (state.get("isolation") or {}).get("uid")
     if uid is None:
         pytest.skip("the sandbox ran as the grader's own user here, so its processes cannot be told apart")
-    assert _live_pids_of_uid(uid) == []
+    assert live_pids_of_uid(uid) == []
     assert _results(batch, "process_left_running_zero")["score"] == 0
 
 
@@ -229,18 +227,21 @@ def test_resumed_batch_skips_graded_work_and_regrades_changed_files(batch, confi
 
 
 # ---------------------------------------------------------------------------------------------
-# the checks, without a sandbox: the helpers run here on chosen functions
+# the checks, without a sandbox: chosen functions called in this process
+
+
+def all_calls(hidden) -> list:
+    return [c for m in MODULES for c in hidden.calls(m)]
 
 
 def run_here(functions: dict, calls) -> dict:
-    """What the sandbox would report for ``calls`` if the student's namespace held ``functions``."""
-    namespace = dict(functions)
-    exec(compile(HELPER_UNIT.source, f"<{HELPER_UNIT.origin}>", "exec"), namespace)  # noqa: S102
-    out = {}
-    for c in calls:
-        value = namespace[c.function](*c.args, **c.kwargs)
-        out[c.id] = CallOutcome(c.id, "ok", wire.loads(wire.dumps(value)))
-    return out
+    """What the checks would read for ``calls`` if the student's notebooks defined ``functions``."""
+    return run_calls(LocalStudent(functions), calls)
+
+
+def judge_all(hidden, outcomes) -> list:
+    """Every question's result from ``outcomes`` (a judge that raises fails the test)."""
+    return [qr for m in MODULES for qr in m.judge(hidden.prepared[m.__name__], outcomes)]
 
 
 def _reference_functions() -> dict:
@@ -259,7 +260,7 @@ def test_reference_solutions_get_full_marks(hidden):
 
 
 def test_a_missing_result_is_a_failure_never_a_pass(hidden):
-    for outcomes in ({}, {c.id: CallOutcome(c.id, "timeout", message="took more than 1 s") for c in all_calls(hidden)}):
+    for outcomes in ({}, {c.id: HelperOutcome("timeout", message="took more than 1 s") for c in all_calls(hidden)}):
         results = judge_all(hidden, outcomes)
         assert [q.id for q in results] == QIDS
         assert all(q.score == 0 for q in results)
@@ -278,10 +279,8 @@ WEIRD_VALUES = [
 def test_malformed_values_score_zero_without_grader_errors(hidden, value):
     payload = {"status": "ok", "items": [{"ok": True, "value": value}] * 12, "pts2": value, "w": value,
                "errors": value, "first_error": value, "reached": value, "error": value}
-    outcomes = {c.id: CallOutcome(c.id, "ok", wire.loads(wire.dumps(payload))) for c in all_calls(hidden)}
-    log: list = []
-    results = judge_all(hidden, outcomes, log)
-    assert log == []
+    outcomes = {c.id: HelperOutcome("ok", wire.loads(wire.dumps(payload))) for c in all_calls(hidden)}
+    results = judge_all(hidden, outcomes)
     assert all(q.score == 0 for q in results), {q.id: q.score for q in results}
 
 
@@ -358,12 +357,11 @@ def test_error_messages_cannot_carry_hidden_inputs_out(hidden):
 
 def test_job_loads_definitions_not_the_notebooks_self_checks(tmp_path):
     sub = load_submission(corpus.build("key_full_marks", tmp_path))
-    sources = [u.source for u in job_units(sub)]
-    statements = [s for s in sources[:-1] if not s.startswith(("def ", "class ", "@", "import ", "from "))]
+    sources = [u.source for u in sub.units()]
+    statements = [s for s in sources if not s.startswith(("def ", "class ", "@", "import ", "from "))]
     assert statements, "the key keeps some constants"
     assert not any(re.search(r"check_\w+\(\w+\)|try_run\(|from_notebook\(", s) for s in statements)
     assert any(s.startswith("def eightpoint(") or "\ndef eightpoint(" in s for s in sources)
-    assert sources[-1] == HELPER_UNIT.source
 
 
 def test_own_notebook_definition_wins_over_a_copy_elsewhere(tmp_path):
@@ -373,7 +371,7 @@ def test_own_notebook_definition_wins_over_a_copy_elsewhere(tmp_path):
     q5 = nbformat.read(folder / "q5_bundle_adjustment.ipynb", as_version=4)
     q5.cells.append(nbformat.v4.new_code_cell("def triangulate(C1, pts1, C2, pts2):\n    return None\n"))
     nbformat.write(q5, folder / "q5_bundle_adjustment.ipynb")
-    units = job_units(load_submission(folder))
+    units = load_submission(folder).units()
     last = [u for u in units if "triangulate" in u.defines][-1]
     assert last.origin.startswith("q3_metric_reconstruction")
 

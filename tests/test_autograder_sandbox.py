@@ -17,13 +17,14 @@ import socket
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from autograder import child, wire
-from autograder.sandbox import Call, Job, ResourceLimits, Sandbox, _live_pids_of_uid
+from autograder.sandbox import ResourceLimits, Sandbox, live_pids_of_uid
+from core import wire
 from autograder.submission import parse_cells
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
@@ -45,12 +46,34 @@ def world_readable_dir():
     shutil.rmtree(path)
 
 
-def run(box, source, *calls, **job_options):
-    return box.run(Job(source, list(calls), **job_options))
+@dataclass(frozen=True)
+class Call:
+    """One call for ``run``: ``function(*args, **kwargs)`` within ``timeout`` seconds, named ``id``."""
+
+    id: str
+    function: str
+    args: tuple = ()
+    kwargs: dict = field(default_factory=dict)
+    timeout: float = 10.0
+
+
+class Ran(dict):
+    """Outcomes by call id, and the session's info as attributes (spawns, swept, stdout...)."""
+
+    def __getattr__(self, name):
+        return getattr(self["__info__"], name)
+
+
+def run(box, source, *calls, budget=120.0):
+    """One session with ``source`` loaded, making ``calls`` in order."""
+    with box.session(source, budget=budget) as session:
+        out = Ran({c.id: session.call(c.function, *c.args, seconds=c.timeout, **c.kwargs) for c in calls})
+    out["__info__"] = session.info
+    return out
 
 
 def no_processes_left(box) -> bool:
-    return box.isolation.uid is None or _live_pids_of_uid(box.isolation.uid) == []
+    return box.isolation.uid is None or live_pids_of_uid(box.isolation.uid) == []
 
 
 # ---------------------------------------------------------------------------------------------
@@ -97,7 +120,7 @@ def test_student_can_import_numpy_scipy_matplotlib_and_the_kit(box):
 def test_failing_import_loses_only_that_statement(box):
     units = parse_cells(["import not_a_module_anywhere\ndef f():\n    return 1\n"],
                         stem="q2_eightpoint", filename="q2_eightpoint.ipynb").units
-    r = box.run(Job(units, [Call("f", "f")]))
+    r = run(box, units, Call("f", "f"))
     assert r["f"].value == 1
     (origin, message), = r.load_errors
     assert origin == "q2_eightpoint.ipynb, cell 1" and "ModuleNotFoundError" in message
@@ -106,14 +129,14 @@ def test_failing_import_loses_only_that_statement(box):
 def test_later_definition_is_the_one_called(box):
     units = parse_cells(["def eightpoint(a, b, M):\n    return 'first'\n", "def eightpoint(a, b, M):\n    return 'second'\n"],
                         stem="q2_eightpoint", filename="q2.ipynb").units
-    r = box.run(Job(units, [Call("e", "eightpoint", (1, 2, 3))]))
+    r = run(box, units, Call("e", "eightpoint", (1, 2, 3)))
     assert r["e"].value == "second"
 
 
 def test_exceptions_missing_functions_and_student_line_numbers(box):
     units = parse_cells(["x = 1\n", "def f(a):\n    y = a + 1\n    raise ValueError('bad input ' + str(y))\n"],
                         stem="q2_eightpoint", filename="q2.ipynb").units
-    r = box.run(Job(units, [Call("f", "f", (1,)), Call("g", "not_defined")]))
+    r = run(box, units, Call("f", "f", (1,)), Call("g", "not_defined"))
     assert r["f"].status == "exception"
     assert r["f"].message == "ValueError: bad input 2 (in f, q2.ipynb, cell 2, line 3)"
     assert "child.py" not in r["f"].message and "Traceback" not in r["f"].message
@@ -364,11 +387,44 @@ def test_unknown_isolation_level_is_refused():
         Sandbox(KIT_ROOT, isolation="chroot")
 
 
-def test_bad_jobs_are_grader_errors(box):
-    with pytest.raises(ValueError, match="unique"):
-        box.run(Job("", [Call("a", "f"), Call("a", "g")]))
-    with pytest.raises(ValueError, match="plain data"):
-        box.run(Job("", [Call("a", "f", (object(),))]))
+def test_bad_calls_are_grader_errors(box):
+    with box.session("def f(x): return x\n", budget=30) as session:
+        with pytest.raises(ValueError, match="plain data"):
+            session.call("f", object(), seconds=5)
+        with pytest.raises(ValueError, match="positive"):
+            session.call("f", 1, seconds=0)
+        assert session.info.spawns == 0  # refused before anything ran
+
+
+def test_a_session_loads_once_maps_inputs_and_stops_a_hung_function(box):
+    src = ("import signal\ndef double(x): return 2 * x\n"
+           "def hang(x):\n    signal.signal(signal.SIGALRM, signal.SIG_IGN)\n    while True: pass\n")
+    with box.session(src, budget=60) as session:
+        doubled = session.map("double", [((k,), {}) for k in range(4)], seconds=5)
+        assert [o.value for o in doubled] == [0, 2, 4, 6]
+        hung = session.map("hang", [((1,), {}), ((2,), {})], seconds=1)
+        assert hung[0].status == "timeout" and hung[1].status == "skipped"
+        again = session.call("hang", 3, seconds=1)  # not called again: no second wait
+        assert again.status == "timeout" and "not run" in again.message and again.seconds is None
+        assert session.call("double", 5, seconds=5).value == 10  # restarted lazily
+    assert session.info.spawns == 2
+
+
+def test_session_budget_stops_calls_that_come_too_late(box):
+    with box.session("import time\ndef nap(): time.sleep(0.6)\n", budget=1.0) as session:
+        first = session.call("nap", seconds=5)
+        later = session.call("nap", seconds=5)
+    assert first.status in ("ok", "timeout") and later.status == "timeout"
+    assert "budget" in later.message
+
+
+def test_chained_calls_feed_one_functions_results_to_another(box):
+    src = "import numpy as np\ndef match(im, x):\n    return np.array([x + im.sum(), 0.0])\n" \
+          "def total(pts):\n    return float(np.sum(pts))\n"
+    with box.session(src, budget=60) as session:
+        matched = session.map("match", [((x,), {}) for x in (1.0, 2.0)], args=(np.ones((2, 2)),), seconds=5)
+        pts = np.array([o.value for o in matched])
+        assert session.call("total", pts, seconds=5).value == 5.0 + 6.0
 
 
 # ---------------------------------------------------------------------------------------------
@@ -388,10 +444,9 @@ def test_wire_round_trip_and_agreement_with_the_child(rng):
     assert np.array_equal(back["F"], value["F"]) and back["t"] == (1.5, [True, None, "s"])
     assert back["big"].dtype == np.int32 and back["big"].dtype.isnative and back["inf"] == -np.inf
     # What the child sends, the grader reads; what the grader sends, the child reads.
-    from_child = wire.decode(json.loads(json.dumps(child._encode(value))))
+    from_child = wire.decode(json.loads(json.dumps(wire.encode_returned(value))))
     assert np.array_equal(from_child["F"], value["F"]) and from_child["t"] == value["t"]
-    to_child = child._decode(json.loads(wire.dumps(value)))
-    assert np.array_equal(to_child["big"], value["big"]) and to_child["t"] == value["t"]
+    assert from_child["big"].dtype == np.int32
 
 
 @pytest.mark.parametrize("payload, match", [
@@ -434,7 +489,7 @@ def test_two_grader_processes_never_share_a_uid():
     import subprocess
     import sys
 
-    code = ("import sys; from autograder.sandbox import _pick_uid; uid, fd = _pick_uid(61234, 1); "
+    code = ("import sys; from autograder.sandbox.uids import pick_uid; uid, fd = pick_uid(61234, 1); "
             "print(uid, flush=True); sys.stdin.read()")
     env = {**os.environ, "PYTHONPATH": str(KIT_ROOT)}
     first = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,

@@ -27,8 +27,10 @@ if [ "${HW4_SETUP_SKIP_INSTALL:-0}" != 1 ]; then
     python3 -m venv "$VENV"
     "$VENV/bin/python" -m pip install --no-cache-dir --upgrade pip
     "$VENV/bin/python" -m pip install --no-cache-dir -r "$SOURCE/requirements.txt"
+    # The hidden checks are pytest tests (autograder/hidden): the grader runs them with pytest.
+    "$VENV/bin/python" -m pip install --no-cache-dir "pytest>=8"
     # Fail the image build now, not every submission later, when the kit cannot load.
-    (cd "$SOURCE" && PYTHONPATH="$SOURCE" "$VENV/bin/python" -c "import autograder.gradescope, starter, scenes, solutions")
+    (cd "$SOURCE" && PYTHONPATH="$SOURCE" "$VENV/bin/python" -c "import autograder.gradescope, autograder.hidden.plugin, pytest, starter, scenes, solutions")
     chmod -R a+rX "$VENV"
 fi
 

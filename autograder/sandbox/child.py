@@ -1,47 +1,41 @@
 """The program that runs a student's code inside the sandbox (``python -I -B child.py --result-fd N``).
 
-Everything here runs as the student: this file imports only the standard library and numpy, never
-the autograder or the solutions, and whatever it writes is judged by the grader as untrusted
-data.  It must stay one self-contained file because the sandbox hides the autograder's folder.
+Everything here runs as the student: it imports only the standard library, numpy and the kit's
+``core.wire`` (from the kit packages the sandbox exposes, never the autograder or the solutions),
+and whatever it writes is judged by the grader as untrusted data.
 
-Protocol (see ``autograder/sandbox.py`` for the grader's side):
+The protocol is a session (the grader's side is ``autograder/sandbox/session.py``):
 
-- stdin holds one JSON job: ``units`` (``{origin, line, source, future}``: top-level code of the
-  student's notebooks, executed in order in one fresh module namespace named ``__main__``),
-  ``calls`` (``{id, function, args, kwargs, timeout}``, arguments in the wire format of
-  ``autograder/wire.py``), ``load_timeout`` (seconds), ``sys_path`` (folders put first on
-  ``sys.path``: the kit's ``starter`` and ``scenes``), ``max_result_bytes``, ``max_message``.
+- stdin carries requests, one JSON object per line.  The first one says what to load:
+  ``{"units": [{origin, line, source, future}], "load_timeout", "sys_path", "max_result_bytes",
+  "max_message"}``: top-level code of the student's notebooks, executed in order in one fresh
+  module namespace named ``__main__``.  Every later line is a call:
+  ``{"id", "function", "args", "inputs", "seconds", "budget", "figure"}``: call ``function`` once
+  per entry of ``inputs`` (``{"args", "kwargs"}``), each time on fresh copies of ``args`` followed
+  by the entry's own arguments (all in the wire format of ``core/wire.py``); stop starting new
+  inputs after ``budget`` seconds and stop the call itself after ``seconds``.  With ``figure``,
+  what is reported for an input is the (K, 3) points its 3D figures show, not the returned value.
 - the result pipe (file descriptor N) receives one JSON record per line:
-  ``{"event": "loaded", "errors": [{origin, message}], "defined": [names]}``, then for each call
-  ``{"event": "start", "id"}`` followed by ``{"id", "status", "value" | "message", "seconds"}``
-  where status is ok, exception, timeout, missing or malformed, and finally ``{"event": "done"}``.
+  ``{"event": "loaded", "errors": [{origin, message}], "defined": [names]}``; then per call
+  ``{"event": "start", "id"}``, ``{"event": "missing", "id", "message"}`` when the function is not
+  there, one ``{"event": "item", "id", "index", "status", "value" | "message", "seconds"}`` per
+  input (status ok, exception, malformed, timeout or skipped) and ``{"event": "end", "id"}``.
 - stdout and stderr belong to the student; the grader keeps a bounded copy and trusts neither.
+- the child's own stdin is /dev/null for the student's code (the requests arrive on a copy).
 """
 
-import base64
-import io
 import json
-import math
 import os
 import signal
 import sys
 import time
 import types
 
-import numpy as np
-
-_np_save = np.save
-_ndarray = np.ndarray
 _MAIN_PID = os.getpid()
-_MAX_DEPTH = 16
 
 
 class _Timeout(BaseException):
     """Raised by the alarm handler; a BaseException so ``except Exception`` does not swallow it."""
-
-
-class _Unsupported(Exception):
-    """A returned value that is not plain data and could not be converted to float64."""
 
 
 _armed = False
@@ -84,85 +78,6 @@ class _Channel:
             except OSError:
                 os._exit(3)  # the grader is gone or the student closed the pipe: nothing to report to
             view = view[n:]
-
-
-# ---------------------------------------------------------------------------------------------
-# wire format (a copy of autograder/wire.py's, which this file may not import)
-
-
-def _decode(obj):
-    if isinstance(obj, list):
-        return [_decode(v) for v in obj]
-    if not isinstance(obj, dict):
-        return obj
-    (tag, inner), = obj.items()
-    if tag == "__ndarray__":
-        return np.load(io.BytesIO(base64.b64decode(inner)), allow_pickle=False)
-    if tag == "__float__":
-        return float(inner)
-    if tag == "__tuple__":
-        return tuple(_decode(v) for v in inner)
-    if tag == "__dict__":
-        return {k: _decode(v) for k, v in inner.items()}
-    raise ValueError(f"unknown tag {tag!r}")
-
-
-def _encode_array(arr):
-    buf = io.BytesIO()
-    _np_save(buf, arr, allow_pickle=False)
-    return {"__ndarray__": base64.b64encode(buf.getvalue()).decode("ascii")}
-
-
-def _as_float_array(value):
-    # The one conversion allowed for objects that are not plain data: whatever they claim to be,
-    # what crosses is a base-class float64 array built from them here, inside the sandbox.
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except _Timeout:
-        raise
-    except BaseException:  # noqa: BLE001 - any failure means: not convertible
-        arr = None
-    if type(arr) is not _ndarray or arr.dtype != np.float64:
-        name = type(value).__name__
-        raise _Unsupported(
-            f"returned a {name}, which is not plain data (numpy arrays, numbers, strings, "
-            "lists, tuples or dicts of those) and could not be converted to a float64 array"
-        )
-    return _encode_array(np.array(arr, dtype=np.float64, copy=True))
-
-
-def _encode(value, depth=0):
-    if depth > _MAX_DEPTH:
-        raise _Unsupported(f"returned data nested deeper than {_MAX_DEPTH} levels")
-    kind = type(value)
-    if value is None or kind is bool or kind is int or kind is str:
-        return value
-    if kind is float:
-        return value if math.isfinite(value) else {"__float__": repr(value)}
-    if kind is _ndarray:
-        if value.dtype.kind in "biuf" or value.dtype.kind == "c":
-            return _encode_array(value)
-        return _as_float_array(value)
-    if kind in (np.bool_,):
-        return bool(value)
-    if isinstance(value, np.integer) and type(value).__module__ == "numpy":
-        return int(value)
-    if isinstance(value, np.floating) and type(value).__module__ == "numpy":
-        return _encode(float(value), depth)
-    if kind is complex or (isinstance(value, np.complexfloating) and type(value).__module__ == "numpy"):
-        return _encode_array(np.asarray(value, dtype=np.complex128))
-    # Subclasses of the containers are read through the base class's own iteration, so an
-    # overridden __iter__ or __getitem__ cannot change what is sent.
-    if isinstance(value, list):
-        return [_encode(v, depth + 1) for v in list.__iter__(value)]
-    if isinstance(value, tuple):
-        return {"__tuple__": [_encode(v, depth + 1) for v in tuple.__iter__(value)]}
-    if isinstance(value, dict):
-        items = list(dict.items(value))
-        if not all(type(k) is str for k, _ in items):
-            raise _Unsupported("returned a dict whose keys are not all strings")
-        return {"__dict__": {k: _encode(v, depth + 1) for k, v in items}}
-    return _as_float_array(value)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,53 +136,149 @@ def _load(units, module, timeout, origins, limit):
     return errors
 
 
-def _run_call(call, module, origins, limit, max_bytes):
-    start = time.perf_counter()
-    record = {"id": call["id"]}
+def _copy(x, np):
+    """Fresh copies, so that a function mutating its inputs cannot change the next input's."""
+    if type(x) is np.ndarray:
+        return x.copy()
+    if type(x) in (list, tuple):
+        return type(x)(_copy(v, np) for v in x)
+    if type(x) is dict:
+        return {k: _copy(v, np) for k, v in x.items()}
+    return x
+
+
+def _drawn_points(figure, np):
+    """(K, 3) coordinates drawn in a matplotlib 3D figure or a plotly figure (empty if none)."""
+    found = []
     try:
-        _arm(call["timeout"])
-        try:
-            name = call["function"]
-            fn = module.__dict__.get(name)
-            if not callable(fn):
-                what = "is not defined" if name not in module.__dict__ else "is not a function"
-                record.update(status="missing", message=f"{name} {what}")
-            else:
-                args = _decode(call.get("args", {"__tuple__": []}))
-                kwargs = _decode(call.get("kwargs", {"__dict__": {}}))
-                value = fn(*args, **kwargs)
-                record.update(status="ok", value=_encode(value))
-        except _Timeout:
-            record.update(status="timeout", message=f"took more than {call['timeout']:g} s")
-        except _Unsupported as exc:
-            record.update(status="malformed", message=str(exc))
-        except BaseException as exc:  # noqa: BLE001 - SystemExit and friends included
-            record.update(status="exception", message=_describe(exc, origins, limit))
+        traces = getattr(figure, "data", None)
+        if isinstance(traces, (tuple, list)):
+            for tr in traces:
+                xyz = [getattr(tr, k, None) for k in ("x", "y", "z")]
+                if all(v is not None for v in xyz):
+                    found.append(np.column_stack([np.asarray(v, float).ravel() for v in xyz]))
+        for ax in getattr(figure, "axes", None) or []:
+            for line in getattr(ax, "lines", []):
+                if hasattr(line, "get_data_3d"):
+                    found.append(np.column_stack([np.asarray(v, float).ravel() for v in line.get_data_3d()]))
+            for coll in getattr(ax, "collections", []):
+                offsets = getattr(coll, "_offsets3d", None)
+                if offsets is not None:
+                    found.append(np.column_stack([np.asarray(v, float).ravel() for v in offsets]))
     except _Timeout:
-        record.update(status="timeout", message=f"took more than {call['timeout']:g} s")
-    except BaseException:  # noqa: BLE001 - e.g. a message whose __str__ itself failed
-        record.update(status="exception", message="the code raised an exception that could not be described")
+        raise
+    except Exception:  # noqa: BLE001, S110 - whatever cannot be read was not drawn
+        pass
+    found = [f for f in found if f.ndim == 2 and f.shape[1] == 3]
+    return np.concatenate(found) if found else np.zeros((0, 3))
+
+
+def _figures_points(value, before, np):
+    """The 3D points shown by the returned object (a figure, or an object holding figures) and by
+    every pyplot figure opened since ``before`` (a set of figure numbers)."""
+    figures = [value]
+    for attr in ("plotly", "matplotlib", "figure", "fig"):
+        try:
+            figures.append(getattr(value, attr, None))
+        except _Timeout:
+            raise
+        except Exception:  # noqa: BLE001, S110 - a hostile attribute is no figure
+            pass
+    plt = sys.modules.get("matplotlib.pyplot")
+    if plt is not None:
+        figures += [plt.figure(k) for k in sorted(set(plt.get_fignums()) - before)]
+    points = [_drawn_points(f, np) for f in figures if f is not None]
+    drawn = np.concatenate(points) if points else np.zeros((0, 3))
+    return drawn[:100000]
+
+
+def _fignums():
+    plt = sys.modules.get("matplotlib.pyplot")
+    try:
+        return set(plt.get_fignums()) if plt is not None else set()
+    except Exception:  # noqa: BLE001 - a student may have replaced pyplot
+        return set()
+
+
+def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
+    """Run one request: ``fn`` on each input within the request's time limits, one record per input."""
+    rid = request["id"]
+    seconds = float(request["seconds"])
+    budget = float(request.get("budget") or seconds)
+    inputs = request.get("inputs") or [{}]
+    figure = bool(request.get("figure"))
+    shared = wire.decode(request.get("args", {"__tuple__": []}), wire.Limits(max_array_bytes=2**31,
+                                                                            max_total_bytes=2**32))
+    start = time.monotonic()
+    timed_out = False
+    _arm(seconds)
+    try:
+        for index, item in enumerate(inputs):
+            record = {"event": "item", "id": rid, "index": index}
+            t0 = time.perf_counter()
+            if timed_out or time.monotonic() - start > budget:
+                record.update(status="skipped", message=f"not run: {request['function']} used up its time "
+                              "on the earlier inputs")
+                channel.send(record)
+                continue
+            try:
+                try:
+                    args = list(_copy(shared, np)) + list(wire.decode(item.get("args", {"__tuple__": []})))
+                    kwargs = wire.decode(item.get("kwargs", {"__dict__": {}}))
+                    before = _fignums() if figure else set()
+                    value = fn(*args, **kwargs)
+                    if figure:
+                        value = _figures_points(value, before, np)
+                    record.update(status="ok", value=wire.encode_returned(value))
+                except _Timeout:
+                    timed_out = True
+                    record.update(status="timeout", message=f"took more than {seconds:g} s")
+                except wire.Unsupported as exc:
+                    record.update(status="malformed", message=str(exc))
+                except BaseException as exc:  # noqa: BLE001 - SystemExit and friends included
+                    record.update(status="exception", message=_describe(exc, origins, limit))
+            except _Timeout:
+                timed_out = True
+                record.update(status="timeout", message=f"took more than {seconds:g} s")
+            except BaseException:  # noqa: BLE001 - e.g. a message whose __str__ itself failed
+                record.update(status="exception", message="the code raised an exception that could not be described")
+            if os.getpid() != _MAIN_PID:
+                os._exit(0)  # a process the student forked must never report
+            record["seconds"] = round(time.perf_counter() - t0, 6)
+            if record["status"] == "ok":
+                size = len(json.dumps(record["value"], allow_nan=False))
+                if size > max_bytes:
+                    record = {"event": "item", "id": rid, "index": index, "status": "malformed",
+                              "seconds": record["seconds"],
+                              "message": f"the returned value is too large ({size} bytes encoded, limit {max_bytes})"}
+            channel.send(record)
+    except _Timeout:
+        pass  # fired between inputs: the remaining ones are reported as skipped by the grader
     finally:
         _disarm()
-    if os.getpid() != _MAIN_PID:
-        os._exit(0)  # a process the student forked must never report
-    record["seconds"] = round(time.perf_counter() - start, 6)
-    if record["status"] == "ok":
-        size = len(json.dumps(record["value"], allow_nan=False))
-        if size > max_bytes:
-            record = {"id": call["id"], "status": "malformed", "seconds": record["seconds"],
-                      "message": f"the returned value is too large ({size} bytes encoded, limit {max_bytes})"}
-    return record
+    plt = sys.modules.get("matplotlib.pyplot")
+    if plt is not None:
+        try:
+            plt.close("all")  # figures of one call must not pile up in memory
+        except Exception:  # noqa: BLE001, S110 - a student may have replaced pyplot
+            pass
 
 
 def main(argv):
     fd = int(argv[argv.index("--result-fd") + 1])
     os.set_inheritable(fd, False)
     channel = _Channel(fd)
-    job = json.loads(sys.stdin.buffer.read())
-    sys.stdin = open(os.devnull)  # noqa: SIM115 - input() in student code gets EOF instead of the job
+    requests = os.fdopen(os.dup(0), "rb")
+    devnull = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(devnull, 0)  # input() in student code gets EOF, never a request
+    sys.stdin = open(os.devnull)  # noqa: SIM115
+    job = json.loads(requests.readline())
     os.environ["MPLBACKEND"] = "Agg"
     sys.path[:0] = list(job.get("sys_path", []))
+    import numpy as np
+
+    from core import wire
+
     limit = int(job.get("max_message", 500))
     max_bytes = int(job.get("max_result_bytes", 64 * 2**20))
 
@@ -280,21 +291,25 @@ def main(argv):
                      if not k.startswith("__") and isinstance(v, (types.FunctionType, type)))[:2000]
     channel.send({"event": "loaded", "errors": errors[:200], "defined": defined})
 
-    for call in job.get("calls", []):
-        channel.send({"event": "start", "id": call["id"]})
-        channel.send(_run_call(call, module, origins, limit, max_bytes))
-        plt = sys.modules.get("matplotlib.pyplot")
-        if plt is not None:
+    while True:
+        line = requests.readline()
+        if not line:
+            break
+        request = json.loads(line)
+        rid, name = request["id"], request["function"]
+        channel.send({"event": "start", "id": rid})
+        fn = module.__dict__.get(name)
+        if not callable(fn):
+            what = "is not defined" if name not in module.__dict__ else "is not a function"
+            channel.send({"event": "missing", "id": rid, "message": f"{name} {what}"})
+        else:
+            _call(request, fn, channel, origins, limit, max_bytes, wire, np)
+        channel.send({"event": "end", "id": rid})
+        for stream in (sys.stdout, sys.stderr):
             try:
-                plt.close("all")  # figures of one call must not pile up in memory
-            except Exception:  # noqa: BLE001, S110 - a student may have replaced pyplot
+                stream.flush()
+            except BaseException:  # noqa: BLE001, S110 - a student may have replaced the stream
                 pass
-    channel.send({"event": "done"})
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except BaseException:  # noqa: BLE001, S110 - a student may have replaced the stream
-            pass
     os._exit(0)  # skip interpreter teardown and any atexit hook the student registered
 
 

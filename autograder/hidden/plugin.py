@@ -1,0 +1,382 @@
+"""The pytest plugin of the hidden checks: options, fixtures, the ``points`` marker, the results.
+
+    python -m pytest autograder/hidden --submission PATH [--grading-config FILE] [--results FILE]
+
+runs every hidden check on one submission: one pytest test per check, the student's functions
+called through a sandbox session (the ``student`` fixture), judged here in the pytest process.
+
+A check is a plain pytest test::
+
+    @pytest.mark.points(5, question="Q2")
+    def test_something(student, hidden, score):
+        F = student.call("eightpoint", pts1, pts2, M, seconds=5)   # fails the test if it raises
+        assert rank(F) == 2, "F should have rank 2"                  # the message is the feedback
+        score.fraction(0.5, "half of the points for ...")            # partial credit (optional)
+
+A test that passes earns its points (times ``score.fraction`` when given); one that fails an
+``assert`` (or whose student call failed) earns zero with the message as feedback; any other
+error is the grader's: zero with "internal error" for the student and the traceback for staff.
+``score.record(...)`` lets a test report finished ``TestResult``/``QuestionResult`` objects.
+
+Options used by the grader (``autograder.grade``): ``--hidden-cache`` (the batch's hidden inputs,
+made once), ``--sandbox-spec`` (the grader's sandbox, not probed again), ``--results`` (the
+``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import time
+from pathlib import Path
+
+import pytest
+
+from core.manifest import QUESTIONS, question
+
+__all__ = ["LocalStudent", "Score", "StudentError", "Student"]
+
+_OUTPUT_KEPT = 8000
+_RESTARTS_BUDGETED = 3      # crashes or timeouts after which the session's time is still enough
+_MESSAGE_LIMIT = 300
+_LONG_NUMBER = re.compile(r"-?\d+\.\d{4,}(?:e[+-]?\d+)?")
+_NUMBER_RUN = re.compile(r"(?:-?\d[\d.e+-]*[\s,;]+){6,}-?\d[\d.e+-]*")
+
+
+def tidy(message: str, limit: int = _MESSAGE_LIMIT) -> str:
+    """A message for feedback, shortened, with long numbers and runs of numbers cut (student
+    code sees the hidden inputs and could print them into an exception)."""
+    text = _NUMBER_RUN.sub("[numbers]", str(message))
+    text = _LONG_NUMBER.sub(lambda m: m.group(0)[: m.group(0).index(".") + 3], text)
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[:limit] + " [...]"
+
+
+class StudentError(AssertionError):
+    """A call of the student's function that did not return: the test fails with this sentence."""
+
+
+def _sentence(function: str, outcome) -> str:
+    msg = tidy(outcome.message or "")
+    if outcome.status == "missing":
+        return f"{function} is not defined in your notebooks"
+    if outcome.status == "timeout":
+        return f"{function} {msg}" if msg.startswith("took") else f"{function} did not finish in time ({msg})"
+    if outcome.status == "exception":
+        return f"{function} raised {msg}" if msg else f"{function} raised an exception"
+    return f"{function}: {msg}" if msg else f"{function} failed"
+
+
+class Student:
+    """The student's code, loaded once in a sandbox session; calls are made one at a time.
+
+    ``seconds`` are multiplied by the config's ``time_scale``.
+    """
+
+    def __init__(self, session, time_scale: float = 1.0):
+        self.session = session
+        self.time_scale = time_scale
+
+    @property
+    def defined(self) -> tuple[str, ...]:
+        """Names of the functions and classes the loaded code defines (starts the child if needed)."""
+        self.session.start()
+        return self.session.defined
+
+    def outcome(self, function: str, *args, seconds: float, **kwargs):
+        """The ``CallOutcome`` of ``function(*args, **kwargs)`` (never raises for the student's behaviour)."""
+        return self.session.call(function, *args, seconds=seconds * self.time_scale, **kwargs)
+
+    def call(self, function: str, *args, seconds: float, **kwargs):
+        """The value ``function(*args, **kwargs)`` returned; StudentError (a failed check) otherwise."""
+        o = self.outcome(function, *args, seconds=seconds, **kwargs)
+        if not o.ok:
+            raise StudentError(_sentence(function, o))
+        return o.value
+
+    def map(self, function, inputs, *, args=(), seconds, budget=None, figure=False):
+        """One ``CallOutcome`` per ``(args, kwargs)`` of ``inputs`` (see ``Session.map``); times are not scaled."""
+        return self.session.map(function, inputs, args=args, seconds=seconds, budget=budget, figure=figure)
+
+
+class LocalStudent:
+    """Stand-in for a sandbox session that calls Python functions of this process (tests of the
+    checks themselves, on chosen functions; no time limits).  Values cross ``core.wire`` as they would."""
+
+    def __init__(self, functions: dict):
+        self.functions = dict(functions)
+        self.defined = tuple(sorted(self.functions))
+        self.loaded_once, self.load_failure = True, None
+
+    def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False):
+        import numpy as np
+
+        from autograder.sandbox import CallOutcome
+        from autograder.sandbox.child import _copy, _figures_points, _fignums
+        from core import wire
+
+        fn = self.functions.get(function)
+        if fn is None:
+            return [CallOutcome("missing", message=f"{function} is not defined")] * len(inputs)
+        out = []
+        for a, k in inputs:
+            try:
+                before = _fignums() if figure else set()
+                value = fn(*_copy(list(args), np), *_copy(list(a), np), **_copy(dict(k), np))
+                if figure:
+                    value = _figures_points(value, before, np)
+                out.append(CallOutcome("ok", wire.decode(json.loads(json.dumps(wire.encode_returned(value))))))
+            except wire.Unsupported as exc:
+                out.append(CallOutcome("malformed", message=str(exc)))
+            except Exception as exc:  # noqa: BLE001 - the function's failure is the outcome
+                out.append(CallOutcome("exception", message=f"{type(exc).__name__}: {exc}"))
+        return out
+
+    def call(self, function, *args, seconds=None, **kwargs):
+        o = self.map(function, [(args, kwargs)])[0]
+        if not o.ok:
+            raise StudentError(_sentence(function, o))
+        return o.value
+
+
+class Score:
+    """What a test reports beyond pass/fail: a fraction of its points, feedback lines, finished results."""
+
+    def __init__(self):
+        self.value: float | None = None
+        self.lines: list[str] = []
+        self.results: list = []
+
+    def fraction(self, value: float, *lines: str) -> None:
+        """Give ``value`` (clipped to [0, 1]) of the test's points, with feedback ``lines``."""
+        value = float(value)
+        self.value = min(max(value, 0.0), 1.0) if math.isfinite(value) else 0.0
+        self.lines += [str(line) for line in lines]
+
+    def feedback(self, *lines: str) -> None:
+        self.lines += [str(line) for line in lines]
+
+    def record(self, *results) -> None:
+        """Report finished ``TestResult`` or ``QuestionResult`` objects instead of a fraction."""
+        self.results += list(results)
+
+
+# ------------------------------------------------------------------------------------------------
+# options, markers and fixtures
+
+
+def pytest_addoption(parser):
+    g = parser.getgroup("hw4", "hidden checks of the homework")
+    g.addoption("--submission", default=None, help="the submission to grade (folder or .zip of notebooks)")
+    g.addoption("--grading-config", default=None, help="grader settings (JSON; default: $HW4_GRADER_CONFIG)")
+    g.addoption("--hidden-cache", default=None, help="folder (0700) with the batch's hidden inputs")
+    g.addoption("--sandbox-spec", default=None, help="JSON of the grader's sandbox (Sandbox.describe)")
+    g.addoption("--isolation", default="auto", help="sandbox level when no --sandbox-spec is given")
+    g.addoption("--results", default=None, help="write the SubmissionResult (JSON) here")
+    g.addoption("--student-id", default=None, help="the gradebook name of the submission")
+    g.addoption("--budget", type=float, default=None, help="seconds for the whole submission (default: from the checks)")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "points(value, question, name=None, visibility='visible'): "
+                                       "what a hidden check is worth and which question it counts for")
+    config._hw4 = {"results": {}, "log": [], "session": None, "started": time.monotonic()}
+
+
+@pytest.fixture(scope="session")
+def grading_config(request):
+    from autograder.config import load_config
+
+    return load_config(request.config.getoption("--grading-config"))
+
+
+@pytest.fixture(scope="session")
+def hidden(request, grading_config):
+    """The hidden inputs (``autograder.hidden.inputs.HiddenInputs``): from the batch's cache, or made here."""
+    from autograder.hidden import inputs
+
+    cache = request.config.getoption("--hidden-cache")
+    if cache:
+        return inputs.load(Path(cache), grading_config)
+    return inputs.build_hidden_inputs(grading_config)
+
+
+@pytest.fixture(scope="session")
+def submission(request):
+    """The parsed submission (``autograder.submission.Submission``)."""
+    from autograder.submission import load_submission
+
+    path = request.config.getoption("--submission")
+    if not path:
+        raise pytest.UsageError("--submission: expected the path of a submission to grade, got none")
+    return load_submission(path)
+
+
+@pytest.fixture(scope="session")
+def sandbox(request):
+    from autograder.sandbox import Sandbox
+
+    spec = request.config.getoption("--sandbox-spec")
+    if spec:
+        box = Sandbox.attach(json.loads(Path(spec).read_text()))
+    else:
+        box = Sandbox(hidden=[Path(request.config.getoption("--submission")).resolve().parent],
+                      isolation=request.config.getoption("--isolation"))
+    yield box
+    box.close()
+
+
+@pytest.fixture(scope="session")
+def student(request, sandbox, submission, grading_config, hidden):
+    """The student's code in one sandbox session for all the checks (``Student``)."""
+    budget = request.config.getoption("--budget") or (
+        hidden.call_seconds() + grading_config.load_timeout * (1 + _RESTARTS_BUDGETED) + 30)
+    session = sandbox.session(list(submission.units()), load_timeout=grading_config.load_timeout, budget=budget)
+    request.config._hw4["session"] = session
+    yield Student(session, grading_config.time_scale)
+    session.close()
+
+
+@pytest.fixture
+def score():
+    return Score()
+
+
+# ------------------------------------------------------------------------------------------------
+# turning test reports into results
+
+
+def _marker(item):
+    m = item.get_closest_marker("points")
+    if m is None:
+        return None
+    value = m.args[0] if m.args else m.kwargs.get("value")
+    qid = m.kwargs.get("question") or (m.args[1] if len(m.args) > 1 else None)
+    if qid is None:
+        raise pytest.UsageError(f"{item.nodeid}: @pytest.mark.points needs question=")
+    name = m.kwargs.get("name") or (item.function.__doc__ or item.name).strip().splitlines()[0].rstrip(".")
+    return float(value), str(qid), name, m.kwargs.get("visibility", "visible")
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    report = outcome.get_result()
+    marker = _marker(item)
+    if marker is None or call.when == "teardown" and report.passed:
+        return
+    if call.when == "setup" and report.passed:
+        return
+    from autograder.results import QuestionResult, TestResult
+
+    points, qid, name, visibility = marker
+    store = item.config._hw4["results"]
+    if report.skipped and call.when != "teardown":
+        return
+    score = item.funcargs.get("score") if hasattr(item, "funcargs") else None
+    if report.passed and call.when == "call":
+        if score is not None and score.results:
+            tests = []
+            for r in score.results:
+                tests += list(r.tests) if isinstance(r, QuestionResult) else [r]
+            store[item.nodeid] = (qid, tests)
+            return
+        fraction = 1.0 if score is None or score.value is None else score.value
+        text = "  \n".join(tidy(line) for line in (score.lines if score else []))
+        store[item.nodeid] = (qid, [TestResult(name, points * fraction, points, fraction >= 1.0, text, visibility)])
+        return
+    if item.nodeid in store and call.when == "teardown":
+        return
+    exc = call.excinfo.value if call.excinfo is not None else None
+    if isinstance(exc, AssertionError):
+        message = str(exc).split("\nassert ")[0].strip() or "the check failed"
+        feedback = tidy(message)
+    else:
+        item.config._hw4["log"].append(f"{item.nodeid} ({call.when}):\n{report.longreprtext}")
+        feedback = ("The autograder could not judge this check because of an internal error; the course staff "
+                    "has been told and will grade it.")
+    store[item.nodeid] = (qid, [TestResult(name, 0.0, points, False, feedback, visibility)])
+
+
+def collect_result(config):
+    """The ``SubmissionResult`` of this run (questions in manifest order, then any other question)."""
+    from autograder.results import QuestionResult, SubmissionResult
+
+    by_q: dict[str, list] = {}
+    for qid, tests in config._hw4["results"].values():
+        by_q.setdefault(qid, []).extend(tests)
+    known = {q.id: q for q in QUESTIONS}
+    order = [q.id for q in QUESTIONS if q.id in by_q] + [qid for qid in by_q if qid not in known]
+    questions = []
+    for qid in order:
+        tests = tuple(by_q[qid])
+        if qid in known:
+            q = question(qid)
+            total = sum(t.max_score for t in tests)
+            if abs(total - q.points) > 1e-6:
+                config._hw4["log"].append(f"{qid}: the checks add up to {total:g} points, the manifest says {q.points}")
+            questions.append(QuestionResult(q.id, q.title, tests, q.extra_credit, q.by_hand))
+        else:
+            questions.append(QuestionResult(qid, qid, tests))
+    session = config._hw4["session"]
+    notes: list[str] = []
+    isolation = None
+    try:
+        from autograder.submission import load_submission
+
+        path = config.getoption("--submission")
+        if path:
+            notes += [str(n) for n in load_submission(path).notes()]
+    except Exception:  # noqa: BLE001, S110 - an unreadable submission already failed its checks
+        pass
+    if session is not None:
+        info = session.info
+        isolation = info.isolation.as_dict()
+        notes += _load_notes(info.load_errors)
+    return SubmissionResult(tuple(questions), config.getoption("--student-id"), isolation, tuple(notes), None,
+                            time.monotonic() - config._hw4["started"])
+
+
+def _load_notes(load_errors) -> list[str]:
+    # Most failures while loading are notebook statements that need files (load_temple(), a
+    # sibling notebook) and do not matter here; a failed import does, as it breaks what uses it.
+    notes = []
+    for origin, message in load_errors:
+        if re.match(r"(ModuleNotFoundError|ImportError)\b", message):
+            notes.append(f"{origin}: {message.split(' (in ', 1)[0]}; code that needs it will fail.")
+    return list(dict.fromkeys(notes))[:10]
+
+
+def pytest_sessionfinish(session, exitstatus):
+    config = session.config
+    path = config.getoption("--results", None)
+    if not path or not hasattr(config, "_hw4"):
+        return
+    result = collect_result(config)
+    staff = {"log": list(config._hw4["log"])}
+    s = config._hw4["session"]
+    if s is not None:
+        info = s.info
+        staff.update(stdout=info.stdout[:_OUTPUT_KEPT], stderr=info.stderr[:_OUTPUT_KEPT], spawns=info.spawns,
+                     swept=info.swept)
+    text = json.dumps({"result": result.to_dict(), "staff": staff}, allow_nan=False, default=str)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if not hasattr(config, "_hw4") or not config._hw4["results"]:
+        return
+    result = collect_result(config)
+    tr = terminalreporter
+    tr.section("hidden checks: points")
+    for q in result.questions:
+        tr.write_line(f"{q.id:6s} {q.score:7.2f} / {q.max_score:g}")
+    tr.write_line(f"total  {result.score:7.2f} / {result.max_score:g}" + (" (+ extra credit)" if any(
+        q.extra_credit for q in result.questions) else ""))
+    for line in config._hw4["log"]:
+        tr.write_line("grader: " + line.splitlines()[0])
+

@@ -1,0 +1,217 @@
+"""Run a student's code in a separate, locked-down process and bring back only checked plain data.
+
+The grader never executes student code itself.  ``Sandbox`` prepares a place (the kit packages
+the student may import, an isolation level, a uid of its own); ``Sandbox.session(units)`` starts a
+child there (``child.py``) that loads the student's code once and then answers calls one at a
+time: "call this function on these inputs within this budget" (``session.py``).  Values cross as
+JSON in the one plain-data format of ``core.wire`` (no pickle) and are judged in the grader, so a
+student who patches ``numpy.allclose`` or ``builtins`` only changes the child.
+
+Isolation, strongest available first (``Sandbox.isolation`` says which was used; ``levels.py``):
+
+``namespaces`` (the grader runs as root, util-linux ``unshare``/``setpriv`` work)
+    New pid, mount, network, ipc and uts namespaces.  Inside, still as root: an empty read-only
+    tmpfs over every hidden path (solutions/, autograder/, the output folder, the course data...),
+    a private /tmp, /var/tmp and /dev/shm, and the Python installation made reachable if it sits
+    under a private folder such as /root.  Then ``setpriv`` drops to a uid of its own (no groups,
+    no capabilities, no new privileges) and starts Python.  The namespace's first process stays a
+    root shell that waits for Python, so killing the sandbox kills the whole namespace, daemons
+    included; a sweep of /proc for the sandbox's uid is the backstop (``uids.py``).
+``user-namespaces`` (not root, but unprivileged user namespaces allowed)
+    The same namespaces and masks inside a user namespace; the code keeps the grader's uid.
+``basic``
+    Resource limits, a new session killed as a group, and (as root) the dedicated uid plus the
+    /proc sweep.  Hidden paths are NOT hidden and the network is NOT cut: ``Isolation`` says so.
+
+In every level: a fresh working folder (HOME) per child, removed afterwards, a minimal
+environment without the grader's variables, rlimits (CPU, address space, processes, file size,
+open files, no core files; ``script.py``), wall-clock limits per call and per session, and
+bounded reads of stdout, stderr and results.
+
+Modules: ``model`` (limits, isolation, outcomes), ``uids``, ``levels`` (probing), ``script``
+(argv, environment, rlimits), ``session`` (the protocol's grader side), ``child`` (its child side).
+"""
+
+from __future__ import annotations
+
+import compileall
+import importlib.util
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+from core.shipping import SANDBOX_PACKAGES
+
+from . import levels
+from .model import LEVELS, STATUSES, CallOutcome, Isolation, ResourceLimits, SessionInfo
+from .script import MPL_CACHE, Runtime
+from .session import Session
+from .uids import live_pids_of_uid, release_uid
+
+__all__ = [
+    "STATUSES",
+    "CallOutcome",
+    "Isolation",
+    "ResourceLimits",
+    "Sandbox",
+    "Session",
+    "SessionInfo",
+    "live_pids_of_uid",
+]
+
+_CHILD = Path(__file__).with_name("child.py")
+
+
+class Sandbox:
+    """A place to run students' code; each ``session`` is one submission.  Use as a context manager.
+
+    Parameters
+    ----------
+    kit_root : path, optional
+        The kit's root (default: the folder above ``autograder``).  Its ``packages`` are copied
+        for the student's imports; its ``solutions``, ``autograder`` and ``tests`` are hidden.
+    hidden : sequence of paths
+        More paths the code must not see or write (the grader's output folder, the course data,
+        hidden tests...).  Missing paths are ignored.
+    packages : sequence of str
+        Top-level packages of the kit the student may import (``core`` is needed by the child).
+    limits : ResourceLimits
+    isolation : {"auto", "namespaces", "user-namespaces", "basic"}
+        "auto" takes the strongest level that works here; a named level that does not work
+        raises RuntimeError.
+    private_tmp : bool
+        Give the code its own empty /tmp, /var/tmp and /dev/shm (namespace levels only).
+    uid : int, optional
+        The uid to run as when root (default: an unused one from 60000 up).
+    """
+
+    def __init__(self, kit_root: str | Path | None = None, *, hidden: Sequence[str | Path] = (),
+                 packages: Sequence[str] = SANDBOX_PACKAGES, limits: ResourceLimits = ResourceLimits(),
+                 isolation: str = "auto", private_tmp: bool = True, uid: int | None = None):
+        if isolation not in ("auto",) + LEVELS:
+            raise ValueError(f"isolation: expected 'auto' or one of {LEVELS}, got {isolation!r}")
+        self.kit_root = Path(kit_root).resolve() if kit_root else Path(__file__).resolve().parents[2]
+        self.limits = limits
+        self._uid_fd: int | None = None
+        self._owner = True
+        self.runtime: Runtime | None = None
+        self._base = Path(tempfile.mkdtemp(prefix="hw4-sandbox-"))
+        try:
+            os.chmod(self._base, 0o711)  # traversable, not listable: the lib folder must be reachable
+            lib = self._base / "lib"
+            _build_lib(lib, self.kit_root, packages)
+            hidden_paths = _hidden_paths(self.kit_root, hidden)
+            self.runtime, self.isolation, self._uid_fd = levels.choose(
+                isolation, lib=lib, hidden=hidden_paths, private_tmp=private_tmp, limits=limits,
+                scratch=self._base, uid=uid)
+        except BaseException:
+            self.close()
+            raise
+
+    # -- sharing with a grading process --------------------------------------------------------
+
+    def describe(self) -> dict:
+        """What another grader process needs to run sessions here (see ``attach``): plain JSON."""
+        rt = self.runtime
+        return {"base": str(self._base), "level": rt.level, "uid": rt.uid, "lib": str(rt.lib),
+                "hidden": [str(p) for p in rt.hidden], "private_tmp": rt.private_tmp,
+                "limits": vars(rt.limits) | {}, "isolation": self.isolation.as_dict(),
+                "kit_root": str(self.kit_root)}
+
+    @classmethod
+    def attach(cls, spec: dict) -> Sandbox:
+        """A Sandbox made by another process of the grader (``describe``), used without probing it
+        again.  That process owns it: it keeps the uid reserved and removes the files; closing
+        this one removes nothing.  ``spec`` must come from the grader (a 0700 folder of its own)."""
+        box = cls.__new__(cls)
+        box.kit_root = Path(spec["kit_root"])
+        box.limits = ResourceLimits(**spec["limits"])
+        box._uid_fd = None
+        box._owner = False
+        box._base = Path(spec["base"])
+        box.runtime = Runtime(spec["level"], spec["uid"], Path(spec["lib"]), tuple(Path(p) for p in spec["hidden"]),
+                              bool(spec["private_tmp"]), box.limits)
+        iso = dict(spec["isolation"])
+        box.isolation = Isolation(**{**iso, "hidden_paths": tuple(iso["hidden_paths"]), "notes": tuple(iso["notes"])})
+        return box
+
+    # -- lifecycle ------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Remove the sandbox's files and free its uid (when this process made it)."""
+        if not self._owner:
+            return
+        shutil.rmtree(self._base, ignore_errors=True)
+        release_uid(self.runtime.uid if self.runtime else None, self._uid_fd)
+        self._uid_fd = None
+
+    def __enter__(self) -> Sandbox:  # noqa: PYI034 - Self needs Python 3.11
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # -- running ----------------------------------------------------------------------------
+
+    def session(self, units, *, load_timeout: float = 60.0, budget: float = 600.0) -> Session:
+        """A session with ``units`` loaded (``SourceUnit`` objects, or one source string).
+
+        load_timeout: seconds to load the code; budget: wall-clock seconds of the whole session.
+        The child starts on the first call.
+        """
+        if isinstance(units, str):
+            payload = [{"origin": "source", "line": 1, "source": units, "future": []}]
+        else:
+            payload = [u.to_job() for u in units]
+        json.dumps(payload)  # a grader bug if the units are not JSON
+        return Session(self.runtime, self.isolation, payload, load_timeout=load_timeout, budget=budget,
+                       scratch=self._base)
+
+
+def _build_lib(lib: Path, kit_root: Path, packages: Sequence[str]) -> None:
+    lib.mkdir(mode=0o755)
+    shutil.copy2(_CHILD, lib / "child.py")
+    for name in packages:
+        src = kit_root / name
+        if not (src / "__init__.py").is_file() and not any(src.glob("*.py")):
+            continue
+        shutil.copytree(src, lib / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    # Compiled here once, because the child may not write into this folder.
+    compileall.compile_dir(lib, quiet=1, workers=1)
+    if importlib.util.find_spec("matplotlib") is not None:
+        # Matplotlib scans the system fonts on first use (about half a second); scan once here
+        # and give every child a copy of the result.
+        subprocess.run([sys.executable, "-I", "-c", "import matplotlib.font_manager"],
+                       env={"MPLCONFIGDIR": str(lib / MPL_CACHE), "PATH": "/usr/bin:/bin"},
+                       capture_output=True, timeout=300, check=False)
+    for p in [lib, *lib.rglob("*")]:
+        os.chmod(p, 0o755 if p.is_dir() else 0o644)
+
+
+def _hidden_paths(kit_root: Path, extra: Sequence[str | Path]) -> tuple[Path, ...]:
+    found = [kit_root / "solutions", kit_root / "autograder", kit_root / "tests"]
+    for pkg in ("solutions", "autograder"):
+        try:
+            spec = importlib.util.find_spec(pkg)
+        except (ImportError, ValueError):
+            spec = None
+        for loc in (spec.submodule_search_locations or []) if spec else []:
+            found.append(Path(loc))
+    course_data = os.environ.get("HW4_COURSE_DATA") or kit_root.parent / "shared" / "course-data"
+    found.append(Path(course_data))
+    found.extend(Path(p) for p in extra)
+    resolved: list[Path] = []
+    for p in found:
+        try:
+            rp = p.resolve(strict=True)
+        except (OSError, RuntimeError):
+            continue
+        if rp != Path("/") and rp not in resolved:
+            resolved.append(rp)
+    # A path inside another hidden folder is already hidden (and could not be mounted on).
+    return tuple(p for p in resolved if not any(q in p.parents for q in resolved))

@@ -1,0 +1,102 @@
+"""What the sandbox is told and what it reports: limits, the isolation used, one call's outcome."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+__all__ = ["LEVELS", "STATUSES", "CallOutcome", "Isolation", "ResourceLimits", "SessionInfo"]
+
+STATUSES = ("ok", "exception", "timeout", "crashed", "missing", "malformed", "skipped")
+LEVELS = ("namespaces", "user-namespaces", "basic")
+
+
+@dataclass(frozen=True)
+class ResourceLimits:
+    """Limits of one sandboxed process tree.
+
+    memory_bytes: RLIMIT_AS of each process; processes: RLIMIT_NPROC (for the sandbox's own
+    uid, threads included); file_bytes: RLIMIT_FSIZE; open_files: RLIMIT_NOFILE; tmp_bytes: size
+    of the private /tmp (namespace levels); output_bytes: how much of stdout and of stderr is
+    kept; result_bytes: largest encoded result; grace: seconds the grader waits beyond a call's
+    own limit before killing the child (the child stops a call itself first).
+    """
+
+    memory_bytes: int = 3 * 2**30
+    processes: int = 64
+    file_bytes: int = 64 * 2**20
+    open_files: int = 256
+    tmp_bytes: int = 256 * 2**20
+    output_bytes: int = 64 * 1024
+    result_bytes: int = 64 * 2**20
+    grace: float = 2.0
+
+
+@dataclass(frozen=True)
+class CallOutcome:
+    """What became of one call of a student function on one input.
+
+    status: one of ``STATUSES`` ("skipped": not run, the request's budget was used up or the
+    function had been stopped before); value: the decoded return value when status is "ok";
+    message: for the other statuses, a short text for the student (the student's exception
+    type and message with the line of their code, never a grader traceback); seconds: run time
+    (as the child measured it for calls that returned, so informative only).
+    """
+
+    status: str
+    value: Any = None
+    message: str = ""
+    seconds: float | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+@dataclass(frozen=True)
+class Isolation:
+    """How the code was isolated (reported in the results).
+
+    level: "namespaces", "user-namespaces" or "basic"; uid: the uid the code ran as (None: the
+    grader's own); pid_namespace, network_isolated, private_tmp: what those words say;
+    hidden_paths: paths the code could not see (empty when the level cannot hide paths);
+    notes: why a stronger level was not used, and other caveats.
+    """
+
+    level: str
+    uid: int | None
+    pid_namespace: bool
+    network_isolated: bool
+    private_tmp: bool
+    hidden_paths: tuple[str, ...]
+    notes: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    def summary(self) -> str:
+        parts = [self.level]
+        parts.append(f"uid {self.uid}" if self.uid is not None else "grader's uid")
+        parts.append("network cut" if self.network_isolated else "network NOT cut")
+        parts.append(f"{len(self.hidden_paths)} paths hidden" if self.hidden_paths else "nothing hidden")
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class SessionInfo:
+    """What happened around the calls of a session (for staff, never for judging).
+
+    load_errors: (origin, message) of units that failed to load (first start); defined: the
+    functions and classes the loaded code defines; stdout, stderr: bounded, untrusted copies of
+    what the child printed; spawns: child processes started; swept: processes the /proc sweeps
+    had to kill (0 when the namespace already ended them all); seconds: wall-clock time.
+    """
+
+    load_errors: tuple[tuple[str, str], ...]
+    defined: tuple[str, ...]
+    stdout: str
+    stderr: str
+    isolation: Isolation
+    seconds: float
+    spawns: int
+    swept: int

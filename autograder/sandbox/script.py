@@ -1,0 +1,252 @@
+"""How a program is started at an isolation level: argv (the namespace's root shell script),
+environment, working folder, uid and rlimits.  Pure builders over a ``Runtime``; nothing runs here
+except the pre-exec hook in the forked child."""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import resource
+import shlex
+import shutil
+import signal
+import site
+import stat
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from .model import ResourceLimits
+from .uids import count_processes
+
+__all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "Runtime", "command", "env", "make_workdir", "popen_options",
+           "python_dirs_in_private_tmp", "unreachable_python_dirs"]
+
+MPL_CACHE = "mplconfig"
+PRIVATE_TMP_DIRS = ("/tmp", "/var/tmp", "/dev/shm")
+_STAGE_FD_MAX = 9      # a POSIX shell redirects only single-digit fds
+_PR_SET_PDEATHSIG = 1
+try:
+    # Loaded here: after fork, in the pre-exec hook, nothing should need to be imported.
+    _LIBC = ctypes.CDLL(None, use_errno=True)
+except OSError:  # pragma: no cover - non-glibc systems
+    _LIBC = None
+
+
+@dataclass(frozen=True)
+class Runtime:
+    """Where and how sandboxed programs run.
+
+    level: the isolation level; uid: the sandbox's own uid (None: the grader's); lib: the folder
+    holding child.py and the kit packages the student may import; hidden: paths covered inside
+    the namespace; private_tmp: own /tmp, /var/tmp, /dev/shm; limits: the rlimits and sizes.
+    """
+
+    level: str
+    uid: int | None
+    lib: Path
+    hidden: tuple[Path, ...]
+    private_tmp: bool
+    limits: ResourceLimits
+
+    @property
+    def namespaced(self) -> bool:
+        return self.level in ("namespaces", "user-namespaces")
+
+    def lib_inside(self) -> Path:
+        """Where the lib folder is seen from inside the sandbox."""
+        return Path("/tmp/.hw4-lib") if self.namespaced and self.private_tmp else self.lib
+
+    def child_argv(self, result_fd: int) -> list[str]:
+        return [sys.executable, "-I", "-B", str(self.lib_inside() / "child.py"), "--result-fd", str(result_fd)]
+
+
+# ------------------------------------------------------------------------------------------------
+# the Python installation
+
+
+def _python_dirs() -> set[Path]:
+    """The outermost folders this Python (its prefix, a virtual environment, site-packages) lives in."""
+    wanted = {Path(sys.base_prefix), Path(sys.prefix), Path(os.path.realpath(sys.executable)).parent}
+    try:
+        wanted.update(Path(p) for p in site.getsitepackages())
+    except AttributeError:
+        pass
+    wanted = {p.resolve() for p in wanted if p.exists()}
+    return {p for p in wanted if not any(q != p and q in p.parents for q in wanted)}
+
+
+def python_dirs_in_private_tmp() -> list[Path]:
+    """Python folders that the private /tmp would cover (a virtual environment made under /tmp, say)."""
+    return sorted(p for p in _python_dirs()
+                  if any(Path(d) in p.parents for d in PRIVATE_TMP_DIRS if os.path.isdir(d)))
+
+
+def unreachable_python_dirs() -> dict[Path, list[Path]]:
+    """Folders of this Python that another uid cannot reach, grouped by the top folder blocking them.
+
+    Python may live under a private folder (pyenv under /root); the sandbox then covers that
+    top folder with a tmpfs and binds these folders back at the same paths, read-only.
+    """
+    out: dict[Path, list[Path]] = {}
+    for p in sorted(_python_dirs()):
+        for anc in reversed(p.parents):
+            if anc == Path("/"):
+                continue
+            if not os.stat(anc).st_mode & stat.S_IXOTH:
+                out.setdefault(anc, []).append(p)
+                break
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# the process
+
+
+def make_workdir(rt: Runtime, jobdir: Path) -> Path:
+    """A fresh working folder (HOME) for one child, owned by the sandbox's uid."""
+    if rt.namespaced and rt.private_tmp:
+        return Path("/tmp/work")  # made by the namespace's shell on the private /tmp
+    work = jobdir / "work"
+    work.mkdir(mode=0o700)
+    if (rt.lib / MPL_CACHE).is_dir():
+        shutil.copytree(rt.lib / MPL_CACHE, work / ".matplotlib")
+    if rt.uid is not None:
+        for p in [work, *work.rglob("*")]:
+            os.chown(p, rt.uid, rt.uid, follow_symlinks=False)
+    return work
+
+
+def env(workdir: Path) -> dict[str, str]:
+    """The child's whole environment: nothing of the grader's."""
+    threads = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                                "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")}
+    return {
+        "PATH": "/usr/local/bin:/usr/bin:/bin",
+        "HOME": str(workdir),
+        "TMPDIR": str(workdir),
+        "LANG": "C.UTF-8",
+        "LC_ALL": "C.UTF-8",
+        "MPLBACKEND": "Agg",
+        "MPLCONFIGDIR": str(workdir / ".matplotlib"),
+        **threads,
+    }
+
+
+def popen_options(rt: Runtime, workdir: Path, cpu_seconds: int) -> dict:
+    """Popen arguments shared by probes and sessions: environment, session, uid, rlimits."""
+    options = {"env": env(workdir), "start_new_session": True, "preexec_fn": _preexec(rt, cpu_seconds), "cwd": "/"}
+    if rt.level == "basic":
+        options["cwd"] = str(workdir)
+        if rt.uid is not None:
+            options.update(user=rt.uid, group=rt.uid, extra_groups=[])
+    return options
+
+
+def _preexec(rt: Runtime, cpu_seconds: int):
+    """Runs in the forked child before exec (after Popen's own uid change): the rlimits."""
+    limits = rt.limits
+    nproc = limits.processes
+    if rt.uid is None:
+        # Without a uid of its own the process count is shared with the grader's user.
+        nproc += count_processes(os.getuid())
+
+    def setup() -> None:
+        def cap(which: int, value: int) -> None:
+            hard = resource.getrlimit(which)[1]
+            value = value if hard == resource.RLIM_INFINITY else min(value, hard)
+            resource.setrlimit(which, (value, value))
+
+        cap(resource.RLIMIT_CORE, 0)
+        cap(resource.RLIMIT_AS, limits.memory_bytes)
+        cap(resource.RLIMIT_FSIZE, limits.file_bytes)
+        cap(resource.RLIMIT_NOFILE, limits.open_files)
+        cap(resource.RLIMIT_NPROC, nproc)
+        hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
+        soft = cpu_seconds if hard == resource.RLIM_INFINITY else min(cpu_seconds, hard - 1)
+        resource.setrlimit(resource.RLIMIT_CPU, (soft, soft + 1 if hard == resource.RLIM_INFINITY else hard))
+        if _LIBC is not None:
+            # If the grader dies, the sandbox dies with it instead of running on unwatched.
+            _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+
+    return setup
+
+
+def command(rt: Runtime, workdir: Path, program: list[str]) -> list[str]:
+    """argv that runs ``program`` at the runtime's isolation level."""
+    if rt.level == "basic":
+        return program
+    flags = ["--pid", "--fork", "--kill-child", "--mount-proc", "--net", "--mount", "--ipc", "--uts"]
+    if rt.level == "user-namespaces":
+        flags = ["--user", "--map-root-user"] + flags
+    return [shutil.which("unshare") or "unshare", *flags, "--", "/bin/sh", "-c", stage_script(rt, workdir, program)]
+
+
+def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
+    """The root shell that prepares the namespace, then runs ``program`` without exec."""
+    q = shlex.quote
+    lines = ["set -e"]
+    fd = 3
+    binds: list[tuple[int, Path]] = []
+
+    def keep(path: Path) -> int:
+        nonlocal fd
+        if fd > _STAGE_FD_MAX:
+            raise RuntimeError("too many folders to keep reachable in the sandbox")
+        lines.append(f"exec {fd}<{q(str(path))}")
+        binds.append((fd, path))
+        fd += 1
+        return fd - 1
+
+    lib_fd = keep(rt.lib) if rt.private_tmp else None
+    # A Python under /tmp (a virtual environment made there) must survive the private /tmp.
+    tmp_python = [(keep(p), p) for p in python_dirs_in_private_tmp()] if rt.private_tmp else []
+    reach = unreachable_python_dirs() if rt.uid is not None else {}
+    reach_fds = {top: [(keep(p), p) for p in paths] for top, paths in reach.items()}
+
+    for p in rt.hidden:
+        if not os.path.lexists(p):
+            continue  # gone since the sandbox was made: nothing left to hide
+        if p.is_dir():
+            lines.append(f"mount -t tmpfs -o ro,nosuid,nodev,noexec,size=4k,mode=0555 tmpfs {q(str(p))}")
+        else:
+            lines.append(f"mount --bind /dev/null {q(str(p))}")
+    if rt.private_tmp:
+        for d in PRIVATE_TMP_DIRS:
+            if os.path.isdir(d):
+                lines.append(f"mount -t tmpfs -o nosuid,nodev,size={rt.limits.tmp_bytes},mode=1777 tmpfs {d}")
+    for kfd, p in tmp_python:
+        lines.append(f"mkdir -p {q(str(p))}")
+        lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{kfd} {q(str(p))}")
+        lines.append(f"mount -o remount,bind,ro {q(str(p))}")
+    for top, kept in reach_fds.items():
+        lines.append(f"mount -t tmpfs -o nosuid,nodev,size=64k,mode=0755 tmpfs {q(str(top))}")
+        for kfd, p in kept:
+            lines.append(f"mkdir -p {q(str(p))}")
+            lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{kfd} {q(str(p))}")
+            lines.append(f"mount -o remount,bind,ro {q(str(p))}")
+    if lib_fd is not None:
+        lib = rt.lib_inside()
+        lines.append(f"mkdir -p {q(str(lib))}")
+        lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{lib_fd} {q(str(lib))}")
+        lines.append(f"mount -o remount,bind,ro {q(str(lib))}")
+        lines.append(f"mkdir -p {q(str(workdir))}")
+        if (rt.lib / MPL_CACHE).is_dir():
+            lines.append(f"cp -R {q(str(lib / MPL_CACHE))} {q(str(workdir / '.matplotlib'))}")
+        if rt.uid is not None:
+            lines.append(f"chown -R {rt.uid}:{rt.uid} {q(str(workdir))}")
+        lines.append(f"chmod 700 {q(str(workdir))}")
+    for kfd, _ in binds:
+        lines.append(f"exec {kfd}<&-")
+    lines.append(f"cd {q(str(workdir))}")
+    lines.append("set +e")
+    argv = [q(a) for a in program]
+    if rt.uid is not None:
+        argv = [q(shutil.which("setpriv") or "setpriv"), f"--reuid={rt.uid}", f"--regid={rt.uid}",
+                "--clear-groups", "--no-new-privs", "--inh-caps=-all", "--bounding-set=-all", "--"] + argv
+    # Not `exec`: this root shell must stay the namespace's first process so that killing
+    # unshare (which sends it SIGKILL) ends the namespace and every process in it.
+    lines.append(" ".join(argv))
+    lines.append("rc=$?")
+    lines.append("exit $rc")
+    return "\n".join(lines)

@@ -1,0 +1,472 @@
+"""The grader's side of the session protocol (the child's side, and the record format, are in child.py).
+
+A ``Session`` holds one submission's code loaded in a sandboxed child and answers calls one at a
+time: ``call(function, *args, seconds=...)`` for one input, ``map(function, inputs, ...)`` for
+several inputs within one budget.  The child is started on the first call and restarted, lazily,
+after a call that crashed it, was killed for overrunning its time or broke the protocol.  A
+function that ran out of time is not called again in the session (it would most likely hang
+again), and the session as a whole has a time budget.  Loading that crashes or hangs fails every
+call without retrying.
+
+Every record is read from a dedicated pipe and decoded by ``core.wire`` with size limits; the
+child's stdout and stderr are kept (bounded) for staff and never judged.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import math
+import os
+import selectors
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from core import wire
+
+from . import script
+from .model import CallOutcome, Isolation, SessionInfo
+from .script import Runtime
+from .uids import sweep_uid
+
+__all__ = ["Session"]
+
+_RESULT_FD_MIN = 100   # above the fds 3..9 the namespace's shell uses
+_MAX_LINE_SLACK = 2**20
+_ITEM_STATUSES = {"ok", "exception", "timeout", "malformed", "skipped"}
+_START_SLACK = 5.0     # seconds the child may take to begin a call it was sent
+
+
+class _ProtocolError(Exception):
+    pass
+
+
+class _Bounded:
+    """Keeps the first ``limit`` bytes written to it and counts the rest."""
+
+    def __init__(self, limit: int):
+        self.limit, self.data, self.dropped = limit, bytearray(), 0
+
+    def add(self, chunk: bytes) -> None:
+        room = self.limit - len(self.data)
+        self.data += chunk[:max(room, 0)]
+        self.dropped += max(len(chunk) - max(room, 0), 0)
+
+    def text(self) -> str:
+        s = self.data.decode("utf-8", errors="replace")
+        return s + (f"\n[... {self.dropped} more bytes not kept]" if self.dropped else "")
+
+
+class _Child:
+    """One running child process and its pipes."""
+
+    def __init__(self, proc: subprocess.Popen, result_fd: int, jobdir: Path):
+        self.proc, self.r, self.jobdir = proc, result_fd, jobdir
+        self.buf = bytearray()
+        self.sel = selectors.DefaultSelector()
+        self.open: set[int] = set()
+        for fd in (result_fd, proc.stdout.fileno(), proc.stderr.fileno()):
+            os.set_blocking(fd, False)
+            self.sel.register(fd, selectors.EVENT_READ)
+            self.open.add(fd)
+        self.w = proc.stdin.fileno()
+        os.set_blocking(self.w, False)
+        self.pending = b""
+
+
+class Session:
+    """Calls of one submission's functions in a sandbox; use as a context manager.
+
+    Parameters
+    ----------
+    runtime : Runtime
+        Where and how the child runs (from the ``Sandbox``).
+    isolation : Isolation
+        Reported in ``info``.
+    units : list of dict
+        The code to load: ``{origin, line, source, future}`` (``SourceUnit.to_job()``).
+    load_timeout : float
+        Seconds to load the units.
+    budget : float
+        Wall-clock seconds of the whole session; calls after it get "timeout".
+    scratch : Path
+        A folder of the grader's (mode 0711) for each child's files.
+    """
+
+    def __init__(self, runtime: Runtime, isolation: Isolation, units: list[dict], *, load_timeout: float,
+                 budget: float, scratch: Path):
+        if not (math.isfinite(budget) and budget > 0):
+            raise ValueError(f"budget: expected a positive number of seconds, got {budget}")
+        self.rt, self.isolation, self.units = runtime, isolation, units
+        self.load_timeout = float(load_timeout)
+        self.scratch = scratch
+        self.started = time.monotonic()
+        self.deadline = self.started + budget
+        self.out, self.err = _Bounded(runtime.limits.output_bytes), _Bounded(runtime.limits.output_bytes)
+        self.wire_limits = wire.Limits(max_array_bytes=runtime.limits.result_bytes,
+                                       max_total_bytes=runtime.limits.result_bytes)
+        self.child: _Child | None = None
+        self.load_errors: tuple = ()
+        self.defined: tuple = ()
+        self.loaded_once = False
+        self.load_failure: CallOutcome | None = None
+        self.stopped: set[str] = set()
+        self.spawns = 0
+        self.swept = 0
+        self.calls = 0
+        self.closed = False
+
+    # -- public --------------------------------------------------------------------------------
+
+    def call(self, function: str, *args, seconds: float, **kwargs) -> CallOutcome:
+        """``function(*args, **kwargs)`` in the sandbox, stopped after ``seconds``."""
+        return self.map(function, [(args, kwargs)], seconds=seconds)[0]
+
+    def map(self, function: str, inputs: Sequence, *, args: Sequence = (), seconds: float,
+            budget: float | None = None, figure: bool = False) -> list[CallOutcome]:
+        """``function(*args, *a, **k)`` for each ``(a, k)`` of ``inputs``, one outcome per input.
+
+        seconds: hard limit of the whole request (the child stops it, the grader kills the child
+        ``limits.grace`` later); budget: no new input is started after it (default: seconds);
+        figure: report the (K, 3) points the function's 3D figures show instead of its value.
+        Arguments are plain data (``core.wire``); anything else is a grader bug (ValueError).
+        """
+        if self.closed:
+            raise ValueError("session: expected an open session, got a closed one")
+        seconds = float(seconds)
+        if not (math.isfinite(seconds) and seconds > 0):
+            raise ValueError(f"seconds: expected a positive number, got {seconds}")
+        try:
+            request = {"function": str(function), "args": wire.encode(tuple(args)),
+                       "inputs": [{"args": wire.encode(tuple(a)), "kwargs": wire.encode(dict(k))} for a, k in inputs],
+                       "seconds": seconds, "budget": float(budget if budget is not None else seconds),
+                       "figure": bool(figure)}
+        except (wire.WireError, TypeError, ValueError) as exc:
+            raise ValueError(f"{function}: arguments must be plain data ({exc})") from None
+        n = len(request["inputs"])
+        if n == 0:
+            return []
+        if function in self.stopped:
+            return [CallOutcome("timeout", message=f"not run: {function} was stopped earlier for taking too long")] * n
+        if time.monotonic() >= self.deadline:
+            return [CallOutcome("timeout", message="the submission's time budget ran out before this call ran")] * n
+        if self.load_failure is None and self.child is None:
+            self._spawn()
+        if self.load_failure is not None:
+            return [self.load_failure] * n
+        self.calls += 1
+        request["id"] = f"r{self.calls}"
+        results = self._exchange(request, n)
+        if any(o.status == "timeout" for o in results):
+            self.stopped.add(function)
+        return results
+
+    def start(self) -> None:
+        """Start the child and load the code now (calls do it when needed)."""
+        if not self.closed and self.load_failure is None and self.child is None and time.monotonic() < self.deadline:
+            self._spawn()
+
+    @property
+    def info(self) -> SessionInfo:
+        return SessionInfo(tuple(self.load_errors), tuple(self.defined), self.out.text(), self.err.text(),
+                           self.isolation, time.monotonic() - self.started, self.spawns, self.swept)
+
+    def close(self) -> SessionInfo:
+        """Stop the child (its whole process tree) and return what happened."""
+        if not self.closed:
+            self.closed = True
+            self._stop(gently=True)
+        return self.info
+
+    def __enter__(self) -> Session:  # noqa: PYI034
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # -- the child -----------------------------------------------------------------------------
+
+    def _spawn(self) -> None:
+        self.spawns += 1
+        jobdir = Path(tempfile.mkdtemp(prefix="job", dir=self.scratch))
+        os.chmod(jobdir, 0o711)  # the work folder inside must be reachable by the sandbox's uid
+        workdir = script.make_workdir(self.rt, jobdir)
+        r, w = os.pipe()
+        wfd = fcntl.fcntl(w, fcntl.F_DUPFD_CLOEXEC, _RESULT_FD_MIN)
+        os.close(w)
+        cpu = math.ceil(max(self.deadline - time.monotonic(), 1.0)) + 5
+        try:
+            proc = subprocess.Popen(script.command(self.rt, workdir, self.rt.child_argv(wfd)), stdin=subprocess.PIPE,
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, pass_fds=(wfd,),
+                                    **script.popen_options(self.rt, workdir, cpu))
+        except OSError as exc:
+            os.close(r)
+            os.close(wfd)
+            shutil.rmtree(jobdir, ignore_errors=True)
+            self.load_failure = CallOutcome("crashed", message=f"the sandbox could not start ({exc})")
+            return
+        os.close(wfd)
+        self.child = _Child(proc, r, jobdir)
+        first = {"units": self.units, "load_timeout": self.load_timeout,
+                 "sys_path": [str(self.rt.lib_inside())], "max_result_bytes": self.rt.limits.result_bytes,
+                 "max_message": 500}
+        self.child.pending = (json.dumps(first, allow_nan=False) + "\n").encode()
+        until = min(time.monotonic() + self.load_timeout + 10 + self.rt.limits.grace, self.deadline)
+        state = {"loaded": False}
+
+        def on_record(rec: dict) -> None:
+            if rec.get("event") != "loaded":
+                raise _ProtocolError(f"unexpected record {str(rec.get('event'))[:40]!r} before loading ended")
+            errors, defined = rec.get("errors"), rec.get("defined")
+            if not (isinstance(errors, list) and isinstance(defined, list)):
+                raise _ProtocolError("bad 'loaded' record")
+            if not self.loaded_once:
+                self.load_errors = tuple((_short(e.get("origin")), _short(e.get("message"))) for e in errors[:200]
+                                         if isinstance(e, dict))
+                self.defined = tuple(_short(d, 200) for d in defined[:2000] if isinstance(d, str))
+            self.loaded_once = True
+            state["loaded"] = True
+
+        ended = self._pump(until, on_record, lambda: state["loaded"])
+        if state["loaded"]:
+            return
+        if ended == "deadline":
+            why = ("timeout", "the submission's time budget ran out" if time.monotonic() >= self.deadline
+                   else f"took more than {self.load_timeout:g} s")
+        elif ended == "exited":
+            why = ("crashed", "the process running the code ended without a result "
+                   + _describe_exit(self.child.proc.returncode))
+        else:
+            why = ("malformed", f"the sandbox's output could not be read ({ended})")
+        self._stop()
+        # Loading itself failed: restarting would fail the same way.
+        self.load_failure = CallOutcome(why[0], message=f"{why[1]} while loading the notebook's code")
+
+    def _exchange(self, request: dict, n: int) -> list[CallOutcome]:
+        child = self.child
+        rid = request["id"]
+        found: dict[int, CallOutcome] = {}
+        state = {"started": None, "ended": False, "missing": None, "current": 0}
+        child.pending = (json.dumps(request, allow_nan=False, separators=(",", ":")) + "\n").encode()
+        sent = time.monotonic()
+        grace = self.rt.limits.grace
+
+        def until() -> float:
+            if state["started"] is None:
+                limit = sent + _START_SLACK + grace
+            else:
+                limit = state["started"] + request["seconds"] + grace
+            return min(limit, self.deadline)
+
+        def on_record(rec: dict) -> None:
+            event = rec.get("event")
+            if rec.get("id") != rid:
+                raise _ProtocolError("a record names an unknown call")
+            if event == "start":
+                state["started"] = state["started"] or time.monotonic()
+            elif event == "missing":
+                state["missing"] = _short(rec.get("message"))
+            elif event == "item":
+                index, status = rec.get("index"), rec.get("status")
+                if type(index) is not int or not 0 <= index < n or status not in _ITEM_STATUSES:
+                    raise _ProtocolError("a result names an unknown input or status")
+                if index not in found:  # the first word on an input is final
+                    found[index] = self._outcome(rec)
+                state["current"] = max(state["current"], index + 1)
+            elif event == "end":
+                state["ended"] = True
+            else:
+                raise _ProtocolError(f"unexpected record {str(event)[:40]!r}")
+
+        ended = self._pump(until, on_record, lambda: state["ended"])
+        if state["missing"] is not None:
+            return [CallOutcome("missing", message=state["missing"])] * n
+        culprit = next((k for k in range(n) if k not in found), None)
+        if ended is True:
+            for k in range(n):
+                found.setdefault(k, CallOutcome("skipped", message=f"not run: {request['function']} used up its "
+                                                "time on the earlier inputs"))
+            return [found[k] for k in range(n)]
+        # The child must go: it overran, ended or broke the protocol; it restarts for the next call.
+        started = state["started"]
+        seconds = round(time.monotonic() - started, 3) if started else None
+        if ended == "deadline":
+            if time.monotonic() >= self.deadline:
+                first = CallOutcome("timeout", message="the submission's time budget ran out", seconds=seconds)
+            elif started is None:
+                first = CallOutcome("timeout", message="the code did not start the next call in time")
+            else:
+                first = CallOutcome("timeout", message=f"took more than {request['seconds']:g} s and was stopped",
+                                    seconds=seconds)
+        elif ended == "exited":
+            first = CallOutcome("crashed", message="the process running the code ended without a result "
+                                + _describe_exit(child.proc.returncode), seconds=seconds)
+        else:
+            first = CallOutcome("malformed", message=f"the sandbox's output could not be read ({ended})",
+                                seconds=seconds)
+        self._stop()
+        if culprit is not None:
+            found[culprit] = first
+        rest = CallOutcome("skipped", message=f"not run: {request['function']} stopped on an earlier input")
+        return [found.get(k, rest) for k in range(n)]
+
+    def _outcome(self, rec: dict) -> CallOutcome:
+        seconds = rec.get("seconds")
+        seconds = float(seconds) if type(seconds) in (int, float) and math.isfinite(seconds) else None
+        if rec["status"] != "ok":
+            return CallOutcome(rec["status"], message=_short(rec.get("message")), seconds=seconds)
+        try:
+            value = wire.decode(rec.get("value"), self.wire_limits)
+        except wire.WireError as exc:
+            return CallOutcome("malformed", message=f"the returned value is not plain data ({exc})", seconds=seconds)
+        return CallOutcome("ok", value=value, seconds=seconds)
+
+    def _pump(self, until, on_record, done) -> bool | str:
+        """Write the pending request and read records until ``done()``: True, or why not
+        ("deadline", "exited", or a protocol error's text)."""
+        child = self.child
+        max_line = self.rt.limits.result_bytes * 4 // 3 + _MAX_LINE_SLACK
+        streams = {child.proc.stdout.fileno(): self.out, child.proc.stderr.fileno(): self.err}
+        writing = False
+        try:
+            while True:
+                if done():
+                    return True
+                if child.pending and not writing:
+                    child.sel.register(child.w, selectors.EVENT_WRITE)
+                    writing = True
+                now = time.monotonic()
+                limit = until() if callable(until) else until
+                if now >= limit:
+                    return "deadline"
+                exited = child.proc.poll() is not None
+                wait = 0 if exited else max(min(0.1, limit - now), 0)
+                events = child.sel.select(timeout=wait)
+                for key, mask in events:
+                    fd = key.fd
+                    if mask & selectors.EVENT_WRITE:
+                        try:
+                            k = os.write(fd, child.pending[:1 << 16])
+                            child.pending = child.pending[k:]
+                        except BlockingIOError:
+                            pass
+                        except OSError:
+                            child.pending = b""  # the child is gone; its exit is seen below
+                        if not child.pending:
+                            child.sel.unregister(fd)
+                            writing = False
+                        continue
+                    try:
+                        chunk = os.read(fd, 1 << 16)
+                    except BlockingIOError:
+                        continue
+                    if not chunk:
+                        child.sel.unregister(fd)
+                        child.open.discard(fd)
+                        continue
+                    if fd != child.r:
+                        streams[fd].add(chunk)
+                        continue
+                    child.buf += chunk
+                    while b"\n" in child.buf and not done():
+                        line, _, rest = bytes(child.buf).partition(b"\n")
+                        child.buf = bytearray(rest)
+                        on_record(_parse(line))
+                    if len(child.buf) > max_line:
+                        raise _ProtocolError("a result record is larger than the limit")
+                if exited and not events:
+                    return "exited"
+        except _ProtocolError as exc:
+            return str(exc) or "bad record"
+        finally:
+            if writing:
+                try:
+                    child.sel.unregister(child.w)
+                except (KeyError, ValueError):
+                    pass
+
+    def _stop(self, gently: bool = False) -> None:
+        child, self.child = self.child, None
+        if child is None:
+            return
+        try:
+            if gently:
+                # End of the requests: the child exits by itself, and with it the namespace.
+                try:
+                    child.proc.stdin.close()
+                    child.proc.wait(timeout=2)
+                except (OSError, subprocess.TimeoutExpired):
+                    pass
+            _kill_tree(child.proc)
+            # What is still in the pipes is kept for staff (bounded), as far as it can be read now.
+            for fd, sink in ((child.proc.stdout.fileno(), self.out), (child.proc.stderr.fileno(), self.err)):
+                if fd in child.open:
+                    try:
+                        while chunk := os.read(fd, 1 << 16):
+                            sink.add(chunk)
+                    except OSError:
+                        pass
+        finally:
+            child.sel.close()
+            os.close(child.r)
+            for f in (child.proc.stdin, child.proc.stdout, child.proc.stderr):
+                try:
+                    f.close()
+                except OSError:
+                    pass
+            if self.rt.uid is not None:
+                self.swept += len(sweep_uid(self.rt.uid))
+            shutil.rmtree(child.jobdir, ignore_errors=True)
+
+
+def _parse(line: bytes) -> dict:
+    try:
+        rec = wire.parse_json(line)
+    except wire.WireError as exc:
+        raise _ProtocolError(str(exc)) from None
+    if not isinstance(rec, dict):
+        raise _ProtocolError("a record is not a JSON object")
+    return rec
+
+
+def _short(value, limit: int = 1000) -> str:
+    text = value if isinstance(value, str) else ""
+    return text if len(text) <= limit else text[:limit] + " [...]"
+
+
+def _describe_exit(code: int | None) -> str:
+    if code is None:
+        return ""
+    # Through the namespace's shell a signal death shows as 128 + signal number.
+    sig = -code if code < 0 else code - 128 if code > 128 else None
+    if sig:
+        try:
+            name = signal.Signals(sig).name
+        except ValueError:
+            name = f"signal {sig}"
+        hint = {"SIGKILL": "; a memory or process limit may have been hit", "SIGXCPU": "; the CPU time limit was hit",
+                "SIGSEGV": "; the interpreter crashed", "SIGXFSZ": "; a file grew past the size limit"}.get(name, "")
+        return f"(killed by {name}{hint})"
+    return f"(exit code {code})"
+
+
+def _kill_tree(proc: subprocess.Popen) -> None:
+    # The group outlives its leader while members remain, and its id is not reused meanwhile.
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+    if proc.poll() is None:
+        try:
+            proc.kill()
+        except ProcessLookupError:
+            pass
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        pass
