@@ -433,13 +433,16 @@ def test_grade_command_grades_into_the_output_folder(tmp_path, config):
 def test_other_modules_can_add_subcommands(monkeypatch):
     import types
 
-    from autograder.__main__ import build_parser
+    from autograder import __main__ as entry
+    from core.commands import Command
 
-    plugin = types.ModuleType("autograder.gradescope")
-    plugin.add_cli = lambda sub: sub.add_parser("gradescope").set_defaults(func=lambda a: 7)
-    monkeypatch.setitem(sys.modules, "autograder.gradescope", plugin)
-    args = build_parser().parse_args(["gradescope"])
+    plugin = types.ModuleType("autograder_fake_plugin")
+    plugin.add_cli = lambda sub: sub.add_parser("fake").set_defaults(func=lambda a: 7)
+    monkeypatch.setitem(sys.modules, "autograder_fake_plugin", plugin)
+    monkeypatch.setitem(entry.COMMANDS, "fake", Command("autograder_fake_plugin", help="a plugin", register="add_cli"))
+    args = entry.build_parser().parse_args(["fake"])
     assert args.func(args) == 7
+    assert entry.main(["fake"]) == 7
 
 
 # ---------------------------------------------------------------------------------------------

@@ -72,7 +72,7 @@ def test_stem_from_metadata_finds_renamed_copies(tmp_path):
 def test_code_zip_takes_a_renamed_copy_under_its_own_name(tmp_path):
     import zipfile
 
-    from kit.bundle import build_bundle
+    from handin.code_zip import build_code_zip as build_bundle
 
     nbformat.write(_nb("def eightpoint(pts1, pts2, M):\n    return 1\n", stem="q2_eightpoint"),
                    tmp_path / "q2_eightpoint (1).ipynb")
