@@ -173,6 +173,7 @@ CASES: dict[str, Case] = {
     "hartley_normalisation_full_marks": Case(_replace("eightpoint", variants.EIGHTPOINT_HARTLEY)),
     "no_refineF_full_marks": Case(_replace("eightpoint", variants.EIGHTPOINT_NO_REFINE)),
     "BA_with_minimize_full_marks": Case(_replace("bundleAdjustment", variants.BA_MINIMIZE)),
+    "BA_with_plain_least_squares_full_marks": Case(_replace("bundleAdjustment", variants.BA_LEAST_SQUARES)),
     # broken notebooks
     "invalid_json_q2_loses_Q2": Case(post=_invalid_json("q2_eightpoint"), loses=frozenset({"Q2"})),
     "duplicated_cells_full_marks": Case(lambda nbs, ctx: duplicate_cells(nbs)),

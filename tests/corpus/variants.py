@@ -234,6 +234,28 @@ def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
     return M2, x[:3 * n].reshape(n, 3), float(cost(x0)), float(cost(x))
 '''
 
+# A plain scipy least_squares on the handout's residuals: no gauge fixed, so the scale of the
+# scene (|t| with the points) drifts freely (with x_scale="jac" it grows about 30-fold on the
+# public scene); any scale is a right answer.
+BA_LEAST_SQUARES = '''\
+import numpy as np
+import scipy.optimize
+from starter import invRodrigues, rodrigues
+
+
+def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
+    """Bundle adjustment with scipy.optimize.least_squares, nothing held fixed."""
+    p1 = np.asarray(p1, dtype=float)
+    p2 = np.asarray(p2, dtype=float)
+    n = len(p1)
+    x0 = np.concatenate([np.asarray(w_init, float).ravel(), invRodrigues(M2_init[:, :3]), M2_init[:, 3]])
+    fit = scipy.optimize.least_squares(lambda x: rodriguesResidual(K1, M1, p1, K2, p2, x), x0, x_scale="jac")
+    x = fit.x
+    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), x[3 * n + 3:, None]])
+    o1 = float(np.sum(rodriguesResidual(K1, M1, p1, K2, p2, x0) ** 2))
+    return M2, x[:3 * n].reshape(n, 3), o1, float(np.sum(fit.fun ** 2))
+'''
+
 WRAP_THRESHOLD_INCLUSIVE = '''\
 _key_MultiviewReconstruction = MultiviewReconstruction
 

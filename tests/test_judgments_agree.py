@@ -1,0 +1,200 @@
+"""The public self-checks and the hidden tests agree, right or wrong, on the very same inputs.
+
+For every corpus submission (tests/corpus: whole student programs named by their outcome) and
+every function of the homework with a self-check, the submission's functions are run here,
+without a sandbox: each notebook's defining statements (core.notebook's rule set, as the grader
+keeps them) are executed in one fresh namespace.  Then
+
+- the hidden judgment: the module's hidden calls on the hidden inputs of a small grading config,
+  made through ``autograder.hidden.legacy.run_calls`` with a ``LocalStudent``, judged by the
+  module's ``judge``; a function is right when every hidden test of it has full marks;
+- the public self-check, given those same hidden inputs explicitly (``scene=``, ``cases=``,
+  ``problems=``, ``inputs=``, ``probes=``/``sequence=``); right when the report passed
+  (for bundle adjustment both sides also get the public scene's problem: ``prepared_for``);
+
+must agree, and when both name known mistakes they must name the same ones.  Hostile
+submissions (exits, bombs, loops: the sandbox's business) are left out.
+"""
+
+from __future__ import annotations
+
+import re
+
+import corpus
+import numpy as np
+import pytest
+
+from core.manifest import NOTEBOOKS
+from judging.mistakes import KNOWN_MISTAKES
+
+pytestmark = pytest.mark.slow
+
+_HOSTILE = ("patched_numpy", "always_true", "exit", "infinite_loop", "bomb", "reads_grader", "writes_results",
+            "prints_fake", "process_left")
+PROGRAMS = [n for n, c in corpus.CASES.items() if c.post is None and not any(h in n for h in _HOSTILE)]
+
+# function -> (hidden module, the hidden tests that judge it: a name prefix per question id)
+FUNCTIONS = {
+    "eightpoint": ("fundamental", {"Q2": ""}),
+    "essentialMatrix": ("essential", {"Q3.1": ""}),
+    "triangulate": ("triangulation", {"Q3.2": ""}),
+    "findM2": ("pose", {"Q3.3": ""}),
+    "epipolarCorrespondence": ("correspondence", {"Q4.1": ""}),
+    "compute3D_pts": ("correspondence", {"Q4.2": ""}),
+    "rodriguesResidual": ("bundle", {"Q5": "rodriguesResidual"}),
+    "bundleAdjustment": ("bundle", {"Q5": ("bundle adjustment", "M2 holds", "o1 and o2")}),
+    "MultiviewReconstruction": ("multiview", {"Q6": ("3D keypoints", "only detections")}),
+}
+_NAME_TO_CODE = {name: code for code, (name, _) in KNOWN_MISTAKES.items()}
+
+
+# --------------------------------------------------------------------------------- programs
+
+def program(name: str) -> dict:
+    """The functions a corpus submission defines, executed here as the grader keeps its statements."""
+    from core.notebook import definitions, python_cells
+
+    case = corpus.CASES[name]
+    nbs = corpus.notebooks(case.base)
+    case.mutate(nbs, {"kit": str(corpus.KIT_ROOT), "out": "/nonexistent", "name": name, "trap": "/nonexistent"})
+    namespace: dict = {"__name__": f"corpus_{name}"}
+    for stem in NOTEBOOKS:
+        cells, _ = python_cells(dict(nbs[stem]))
+        for d in definitions(cells, homework=FUNCTIONS):
+            try:
+                exec(compile(d.source, f"<{name}/{stem}>", "exec"), namespace)  # noqa: S102 - the kit's own corpus
+            except Exception:  # noqa: BLE001 - a failing statement costs nothing, as in the grader
+                pass
+    return {f: namespace[f] for f in (*FUNCTIONS, "plot_3d_keypoint_video") if callable(namespace.get(f))}
+
+
+@pytest.fixture(scope="module")
+def hidden():
+    from autograder.config import quick_config
+    from autograder.hidden.inputs import build_hidden_inputs
+
+    return build_hidden_inputs(quick_config())
+
+
+# --------------------------------------------------------------------------------- the inputs
+
+def prepared_for(hidden, module_name: str):
+    """The hidden module's prepared inputs, with the public check's own problem in where a
+    public-only input could hide a disagreement (bundle adjustment: the public scene's problem
+    replaces the last hidden one)."""
+    import dataclasses
+
+    prepared = hidden.prepared[f"autograder.tests.{module_name}"]
+    if module_name == "bundle":
+        from autograder.tests.bundle import Problem
+        from judging.bundle import total_error
+        from starter.checks.bundle import _generated_problem
+        from starter.checks._scenes import two_view
+
+        pub = _generated_problem(two_view())
+        extra = Problem("the public scene", pub.K1, pub.K2, pub.p1, pub.p2, pub.M2_init, pub.w_init,
+                        total_error(pub.K1, pub.K2, pub.p1, pub.p2, pub.M2_init, pub.w_init), pub.optimum)
+        # In place of the last hidden problem: the question's points stay those of two problems.
+        prepared = dataclasses.replace(prepared, problems=(*prepared.problems[:-1], extra))
+    return prepared
+
+
+# --------------------------------------------------------------------------------- the two sides
+
+def hidden_outcome(hidden, functions: dict, function: str) -> tuple[bool, set[str], str]:
+    """(right, mistake codes named, feedback) of the hidden tests that judge ``function``."""
+    import importlib
+
+    from autograder.hidden.legacy import run_calls
+    from autograder.hidden.plugin import LocalStudent
+
+    module_name, tests = FUNCTIONS[function]
+    module = importlib.import_module(f"autograder.tests.{module_name}")
+    prepared = prepared_for(hidden, module_name)
+    outcomes = run_calls(LocalStudent(functions), module.calls(prepared, hidden.config.time_scale))
+    chosen = []
+    for q in module.judge(prepared, outcomes):
+        prefixes = tests.get(q.id)
+        if prefixes is None:
+            continue
+        prefixes = (prefixes,) if isinstance(prefixes, str) else prefixes
+        chosen += [t for t in q.tests if t.name.startswith(prefixes)]
+    assert chosen, f"no hidden test judges {function}"
+    feedback = "\n".join(t.feedback for t in chosen if t.score < t.max_score)
+    names = set(re.findall(r"Likely mistake: ([^.]+)\.", feedback))
+    return all(t.score >= t.max_score - 1e-9 for t in chosen), {_NAME_TO_CODE[n] for n in names}, feedback
+
+
+def _pair_of(scene_pair, noisy1=None, noisy2=None, M=None):
+    from starter.checks._scenes import NoisyPair
+
+    p1 = np.rint(scene_pair.pts1).astype(np.uint16) if noisy1 is None else noisy1
+    p2 = np.rint(scene_pair.pts2).astype(np.uint16) if noisy2 is None else noisy2
+    return NoisyPair(scene_pair, p1, p2, float(M if M is not None else 640.0))
+
+
+def public_reports(hidden, functions: dict, function: str) -> list:
+    """The self-check reports of ``function`` on the hidden inputs of its hidden tests."""
+    from starter import checks
+    from starter.checks._scenes import noisy_pair
+
+    fn = functions.get(function)
+    sc = hidden.scenes
+    prep = hidden.prepared
+    kw = {"verbose": False}
+    if function == "eightpoint":
+        base = sc.default or sc.hidden[-1]
+        return [checks.check_eightpoint(fn, scene=noisy_pair(base.scene), **kw)]
+    if function == "essentialMatrix":
+        p = prep["autograder.tests.essential"]
+        return [checks.check_essentialMatrix(fn, scene=_pair_of(sc.two_view), inputs=p.inputs[:-1], **kw)]
+    if function == "triangulate":
+        return [checks.check_triangulate(fn, scene=_pair_of(sc.two_view), **kw),
+                *(checks.check_triangulate(fn, scene=noisy_pair(tc.scene), **kw) for tc in sc.hidden)]
+    if function == "findM2":
+        p = prep["autograder.tests.pose"]
+        noisy = p.cases[1]
+        return [checks.check_findM2(fn, scene=_pair_of(sc.two_view), **kw),
+                checks.check_findM2(fn, scene=noisy_pair(sc.hidden[0].scene), F=noisy.F, right=noisy.right, **kw)]
+    if function == "epipolarCorrespondence":
+        return [checks.check_epipolarCorrespondence(fn, cases=prep["autograder.tests.correspondence"].cases, **kw)]
+    if function == "compute3D_pts":
+        p = prep["autograder.tests.correspondence"]
+        return [checks.check_compute3D_pts(fn, cases=[p.points_case], **kw)]
+    if function == "rodriguesResidual":
+        return [checks.check_rodriguesResidual(fn, inputs=prep["autograder.tests.bundle"].residual_inputs, **kw)]
+    if function == "bundleAdjustment":
+        return [checks.check_bundleAdjustment(fn, problems=prepared_for(hidden, "bundle").problems, **kw)]
+    if function == "MultiviewReconstruction":
+        p = prep["autograder.tests.multiview"]
+        return [checks.check_MultiviewReconstruction(fn, probes=p.probes, sequence=p.sequence, **kw)]
+    raise KeyError(function)
+
+
+def public_outcome(hidden, functions: dict, function: str) -> tuple[bool, set[str], str]:
+    reports = public_reports(hidden, functions, function)
+    codes = {m.code for r in reports for m in r.mistakes}
+    return all(r.passed for r in reports), codes, "\n".join(r.text() for r in reports)
+
+
+def assert_agree(hidden, functions: dict, function: str, where: str) -> None:
+    h_ok, h_codes, h_text = hidden_outcome(hidden, functions, function)
+    p_ok, p_codes, p_text = public_outcome(hidden, functions, function)
+    assert h_ok == p_ok, (f"{where}, {function}: hidden says {'right' if h_ok else 'wrong'}, the self-check says "
+                          f"{'right' if p_ok else 'wrong'}\n--- hidden:\n{h_text}\n--- public:\n{p_text}")
+    if h_codes and p_codes:
+        assert h_codes == p_codes, f"{where}, {function}: hidden names {h_codes}, public {p_codes}"
+
+
+# --------------------------------------------------------------------------------- the test
+
+@pytest.mark.parametrize("name", PROGRAMS)
+def test_self_checks_and_hidden_tests_agree_on_the_corpus(hidden, name):
+    functions = program(name)
+    for function in FUNCTIONS:
+        assert_agree(hidden, functions, function, name)
+
+
+def test_programs_are_the_corpus_submissions():
+    assert set(FUNCTIONS) <= set(program("key_full_marks"))
+    assert "essentialMatrix" not in program("missing_essentialMatrix_loses_Q3_1_and_Q3_3")
