@@ -2,8 +2,8 @@
 
 Everything a student's code returned is untrusted plain data (``autograder.wire`` decoded it):
 any type, shape, dtype or NaN may come.  ``Outcome.items`` unpacks the helper's per-call records
-(see ``_child_helpers.py``) and the ``as_*`` readers turn values into float arrays or raise
-:class:`Malformed` with a sentence for the student.  Nothing here mentions a hidden input's values.
+(see ``_child_helpers.py``) and judging.verdict's readers (``as_array``, ``as_number``, ``parts``
+here) turn values into float arrays or raise Malformed with a sentence for the student.  Nothing here mentions a hidden input's values.
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 
 from autograder.results import TestResult
+from judging.verdict import Malformed, fmt, log_score, read_array, read_number, read_parts, share_score
 
 __all__ = [
     "Item",
@@ -38,10 +38,6 @@ __all__ = [
 _MESSAGE_LIMIT = 300
 _LONG_NUMBER = re.compile(r"-?\d+\.\d{4,}(?:e[+-]?\d+)?")
 _NUMBER_RUN = re.compile(r"(?:-?\d[\d.e+-]*[\s,;]+){6,}-?\d[\d.e+-]*")
-
-
-class Malformed(Exception):
-    """A returned value that is not what the contract says; the message is for the student."""
 
 
 def tidy(message: str, limit: int = _MESSAGE_LIMIT) -> str:
@@ -133,81 +129,15 @@ def first_problem(items: Sequence[Item]) -> str:
 
 
 # ------------------------------------------------------------------------------- readers
+# One reader of returned values for the whole kit: judging.verdict (read_array, read_number,
+# read_parts raise Malformed with a sentence for the student).  The old names stay for callers.
 
-
-def as_array(value, shape: tuple[int | None, ...], what: str) -> np.ndarray:
-    """``value`` as a float64 array of ``shape`` (None: any length), or Malformed.
-
-    Lists and tuples of numbers are accepted as arrays; complex values only when their imaginary
-    part is zero; NaN and inf are kept (the checks count them as wrong).
-    """
-    if isinstance(value, (list, tuple)):
-        try:
-            value = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise Malformed(f"{what} should be an array of shape {_shape_text(shape)}, got a "
-                            f"{type(value).__name__} that is not one") from None
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = np.asarray(float(value))
-    if not isinstance(value, np.ndarray):
-        raise Malformed(f"{what} should be an array of shape {_shape_text(shape)}, got {_kind(value)}")
-    if value.dtype.kind == "c":
-        if np.any(value.imag != 0):
-            raise Malformed(f"{what} has complex values")
-        value = value.real
-    if value.dtype.kind not in "biuf":
-        raise Malformed(f"{what} should hold numbers, got dtype {value.dtype}")
-    arr = value.astype(np.float64)
-    if len(shape) == 2 and shape[1] is not None and arr.ndim == 1 and shape[0] is None and arr.size == shape[1]:
-        arr = arr.reshape(1, -1)
-    if arr.ndim != len(shape) or any(w is not None and w != s for w, s in zip(shape, arr.shape)):
-        squeezed = arr.squeeze()
-        if squeezed.ndim == len(shape) and all(w is None or w == s for w, s in zip(shape, squeezed.shape)):
-            return squeezed
-        raise Malformed(f"{what} should have shape {_shape_text(shape)}, got {arr.shape}")
-    return arr
-
-
-def as_number(value, what: str) -> float:
-    """``value`` as one float (a 1-element array counts), or Malformed."""
-    if isinstance(value, bool):
-        raise Malformed(f"{what} should be a number, got a bool")
-    if isinstance(value, (int, float)):
-        return float(value)
-    if isinstance(value, np.ndarray) and value.size == 1 and value.dtype.kind in "biuf":
-        return float(value.reshape(()))
-    raise Malformed(f"{what} should be a number, got {_kind(value)}")
-
-
-def parts(value, count: int, what: str) -> tuple:
-    """The first ``count`` elements of a returned tuple or list, or Malformed."""
-    if not isinstance(value, (tuple, list)) or len(value) < count:
-        raise Malformed(f"{what} should return {count} values (a tuple), got {_kind(value)}")
-    return tuple(value[:count])
-
-
-def _kind(value) -> str:
-    if isinstance(value, np.ndarray):
-        return f"an array of shape {value.shape}"
-    if isinstance(value, (tuple, list)):
-        return f"a {type(value).__name__} of {len(value)} values"
-    if value is None:
-        return "None"
-    return f"a {type(value).__name__}"
-
-
-def _shape_text(shape) -> str:
-    return "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+as_array = read_array
+as_number = read_number
+parts = read_parts
 
 
 # ------------------------------------------------------------------------------- scoring
-
-
-def fmt(x: float, digits: int = 3) -> str:
-    """A figure for feedback: 3 significant digits, 'inf'/'nan' spelled out."""
-    if x is None or not math.isfinite(x):
-        return "not finite" if x is not None and math.isnan(x) else "infinite"
-    return f"{x:.{digits}g}"
 
 
 def graded(name: str, points: float, fraction: float, lines: Sequence[str] = (), mistakes: Sequence = ()) -> TestResult:
@@ -258,28 +188,3 @@ def _unique(mistakes):
 def mistake_note(m) -> str:
     """'Likely mistake: <name>. <hint>' for a catalogue Mistake."""
     return f"Likely mistake: {m.name}. {m.hint[0].upper()}{m.hint[1:]}"
-
-
-def share_score(share: float, goal: float, floor: float) -> float:
-    """Partial credit for a share: 1 at ``goal`` and above, 0 at ``floor`` and below, linear between."""
-    if not math.isfinite(share):
-        return 0.0
-    if share >= goal:
-        return 1.0
-    if goal <= floor:
-        return 0.0
-    return max(0.0, (share - floor) / (goal - floor))
-
-
-def log_score(value: float, start: float, goal: float) -> float:
-    """Partial credit for lowering an error from ``start`` towards ``goal`` (log scale).
-
-    1 when value <= goal, 0 when value >= start, else the share of log(start / goal) achieved.
-    """
-    if not (math.isfinite(value) and value >= 0):
-        return 0.0
-    if value <= goal:
-        return 1.0
-    if value >= start or start <= goal or goal <= 0:
-        return 0.0
-    return math.log(start / value) / math.log(start / goal)

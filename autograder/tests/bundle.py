@@ -8,11 +8,11 @@ the points triangulated from that camera.
 
 - ``rodriguesResidual`` must return the handout's residuals, in the handout's layout (or their
   negatives), at the start of each problem and at a perturbed x.
-- ``bundleAdjustment``'s result is scored by the reprojection error recomputed here from the
-  returned M2 and w: full marks within 2 % of the optimum (the reference's, or a gauge-fixed
-  Levenberg-Marquardt solve made here, whichever is lower), partial credit on a log scale from
-  the start.  A result whose |t| collapsed below a fifth of the start's scores nothing: the
-  scale is not observable, and a vanishing baseline is a degenerate answer.
+- ``bundleAdjustment``'s result is judged by judging.bundle.result: the reprojection error
+  recomputed from the returned M2 and w, full marks within 2 % of the optimum (the reference's,
+  or a gauge-fixed Levenberg-Marquardt solve made here, whichever is lower), partial credit on
+  a log scale from the start; and the reconstruction compared with the start's after a
+  similarity alignment.  Any gauge is right (the handout fixes no scale); |t| is not judged.
 - M2 must hold a rotation, and o1, o2 the errors before and after.
 """
 
@@ -24,26 +24,14 @@ import numpy as np
 import scipy.optimize
 
 from autograder.results import QuestionResult
-from autograder.sandbox import Call
-from starter.checks.mistakes import (
-    ba_mistakes,
-    error_not_sum_of_squares,
-    mistake,
-    residual_layout,
-)
+from autograder.hidden.legacy import Call
+from core.geometry import project
+from judging import bundle as jb
+from judging.bundle import total_error
+from judging.verdict import Malformed
 
-from ._common import (
-    Malformed,
-    Outcome,
-    as_array,
-    as_number,
-    first_problem,
-    fmt,
-    graded,
-    log_score,
-    parts,
-)
-from .hidden import Scenes, project
+from ._common import Outcome, first_problem, graded
+from .hidden import Scenes
 
 __all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare"]
 
@@ -74,14 +62,6 @@ class Prepared:
     problems: tuple[Problem, ...]
     residual_inputs: tuple[tuple, ...]     # (K1, M1, p1, K2, p2, x) of rodriguesResidual
     residual_expected: tuple[np.ndarray, ...]
-
-
-def total_error(K1, K2, p1, p2, M2, w) -> float:
-    """Sum of squared reprojection distances in both images (pixels^2); inf when not finite."""
-    r1 = p1 - project(K1 @ _M1, w)
-    r2 = p2 - project(K2 @ M2, w)
-    total = float(np.sum(r1 ** 2) + np.sum(r2 ** 2))
-    return total if np.isfinite(total) else float("inf")
 
 
 def _rotation(axis, degrees) -> np.ndarray:
@@ -171,47 +151,21 @@ def calls(p: Prepared, time_scale: float) -> list[Call]:
     ]
 
 
-def _packing_mistake(r, inp) -> object:
-    """The x_packing Mistake when r equals the reference residual of x read in another order."""
-    from solutions import rodriguesResidual
-
-    K1, M1, p1, K2, p2, x = inp
-    n = len(p1)
-    w, rest = x[:3 * n], x[3 * n:]
-    orders = {
-        "[r2, t2, w]": np.concatenate([x[6:], x[:3], x[3:6]]),
-        "[t2, r2, w]": np.concatenate([x[6:], x[3:6], x[:3]]),
-        "[w, t2, r2]": np.concatenate([w, rest[3:], rest[:3]]),
-    }
-    for order, x_read in orders.items():
-        e = rodriguesResidual(K1, M1, p1, K2, p2, x_read)
-        if min(np.abs(r - e).max(), np.abs(r + e).max()) <= 1e-6 * max(1.0, np.abs(e).max()):
-            return mistake("x_packing", f"your residuals are those of x read as {order}")
-    return None
-
-
 def _judge_residuals(p: Prepared, outcomes):
     items = Outcome(outcomes.get("Q5:rodriguesResidual"), "rodriguesResidual").items(len(p.residual_inputs))
     right, lines, mistakes = 0, [], []
-    for k, (inp, e, item) in enumerate(zip(p.residual_inputs, p.residual_expected, items), start=1):
+    for k, (inp, item) in enumerate(zip(p.residual_inputs, items), start=1):
         try:
             if not item.ok:
                 raise Malformed(item.error)
-            value = item.value.reshape(-1) if isinstance(item.value, np.ndarray) else item.value
-            r = as_array(value, (None,), "the residuals")
-            if r.shape != e.shape:
-                raise Malformed(f"the residuals should be a vector of 4N = {e.size} values, got {r.size}")
+            r = jb.read_residuals(item.value, len(inp[2]))
         except Malformed as exc:
             lines.append(f"input {k}: {exc}")
             continue
-        gap = min(np.abs(r - e).max(), np.abs(r + e).max()) if np.all(np.isfinite(r)) else np.inf
-        tol = 1e-6 * max(1.0, float(np.abs(e).max()))
-        ok = gap <= tol
-        right += ok
-        lines.append(f"input {k}: largest difference from the handout's residuals {fmt(gap)} px "
-                     f"(goal <= {tol:.1g} px)")
-        if not ok and np.all(np.isfinite(r)):
-            mistakes += [m for m in (residual_layout(r, e), _packing_mistake(r, inp)) if m]
+        v = jb.residuals(r, *inp)
+        right += v.passed
+        lines.append(f"input {k}: {v.sentence}")
+        mistakes += v.mistakes
     return graded("rodriguesResidual returns the handout's residuals", 6, right / len(items), lines, mistakes)
 
 
@@ -220,58 +174,26 @@ def _judge_ba(p: Prepared, outcomes):
     opt_tests, rot_ok, rep_ok = [], [], []
     rot_lines, rep_lines, rep_mistakes = [], [], []
     for pr, item in zip(p.problems, items):
-        lines, mistakes, fraction = [], [], 0.0
-        goal = 1.02 * pr.optimum + 0.05
         try:
             if not item.ok:
                 raise Malformed(item.error)
-            M2, w, o1, o2 = parts(item.value, 4, "bundleAdjustment")
-            M2 = as_array(M2, (3, 4), "M2")
-            w = as_array(w, (len(pr.p1), 3), "w")
+            M2, w, o1, o2 = jb.read_ba(item.value, len(pr.p1))
         except Malformed as exc:
-            lines.append(f"{pr.label}: {exc}")
-            opt_tests.append(graded(f"bundle adjustment on {pr.label}", 5, 0.0, lines))
+            opt_tests.append(graded(f"bundle adjustment on {pr.label}", 5, 0.0, [f"{pr.label}: {exc}"]))
             rot_ok.append(False)
             rep_ok.append(False)
             continue
-        err = total_error(pr.K1, pr.K2, pr.p1, pr.p2, M2, w)
-        t0, t1 = np.linalg.norm(pr.M2_init[:, 3]), np.linalg.norm(M2[:, 3])
-        collapsed = not (np.isfinite(t1) and t1 >= 0.2 * t0)
-        fraction = 0.0 if collapsed else log_score(err, pr.start, goal)
-        lines.append(f"{pr.label}: reprojection error of your M2 and w {fmt(err)} px^2 (start {fmt(pr.start)}, "
-                     f"goal <= {fmt(goal)} px^2)")
-        if collapsed:
-            lines.append(f"|t| went from {fmt(t0)} to {fmt(t1)}: the reconstruction collapsed")
-            mistakes.append(mistake("ba_scale_collapse", f"|t| went from {t0:.3g} to {t1:.3g}"))
-        elif err >= pr.start * (1 - 1e-6):
-            mistakes.append(mistake("ba_not_decreasing", f"start {pr.start:.6g}, result {err:.6g}"))
-        opt_tests.append(graded(f"bundle adjustment on {pr.label}", 5, fraction, lines, mistakes))
-        R = M2[:, :3]
-        is_rot = bool(np.all(np.isfinite(R)) and np.allclose(R.T @ R, np.eye(3), atol=1e-6) and np.linalg.det(R) > 0)
-        rot_ok.append(is_rot)
-        rot_lines.append(f"{pr.label}: M2[:, :3] is {'' if is_rot else 'not '}a rotation")
-        try:
-            o1v, o2v = as_number(o1, "o1"), as_number(o2, "o2")
-        except Malformed as exc:
-            rep_ok.append(False)
-            rep_lines.append(f"{pr.label}: {exc}")
-            continue
-        good = bool(np.isclose(o1v, pr.start, rtol=1e-3) and np.isclose(o2v, err, rtol=1e-3, atol=1e-6))
-        rep_ok.append(good)
-        rep_lines.append(f"{pr.label}: o1 = {fmt(o1v)} and o2 = {fmt(o2v)}; your start and result give "
-                         f"{fmt(pr.start)} and {fmt(err)} px^2")
-        if good:
-            continue
-        if err >= pr.start * (1 - 1e-6) and o2v < err:
-            # A lower o2 than what the returned M2 and w give: the result returned is the start.
-            rep_mistakes.append(mistake("ba_not_decreasing", f"you report o2 = {o2v:.6g}, but the M2 and w you "
-                                                              f"return give {err:.6g}, the start's error"))
-            continue
-        rep_mistakes += ba_mistakes(o1v, o2v, pr.M2_init[:, 3], M2[:, 3])
-        r1 = pr.p1 - project(pr.K1 @ _M1, w)
-        r2 = pr.p2 - project(pr.K2 @ M2, w)
-        if np.all(np.isfinite(r1)) and np.all(np.isfinite(r2)):
-            rep_mistakes += [m for m in (error_not_sum_of_squares(o2v, r1, r2),) if m]
+        args = (pr.K1, pr.K2, pr.p1, pr.p2, pr.M2_init, pr.w_init)
+        v = jb.result(M2, w, *args, pr.optimum)
+        opt_tests.append(graded(f"bundle adjustment on {pr.label}", 5, v.fraction,
+                                [f"{pr.label}: {v.sentence}", *v.lines], v.mistakes))
+        r = jb.rotation(M2)
+        rot_ok.append(r.passed)
+        rot_lines.append(f"{pr.label}: M2[:, :3] is {'' if r.passed else 'not '}a rotation")
+        e = jb.reported_errors(o1, o2, M2, w, *args)
+        rep_ok.append(e.passed)
+        rep_lines.append(f"{pr.label}: {e.measured}; your start and result give {e.goal.split(' from')[0]} px^2")
+        rep_mistakes += e.mistakes
     for lines in (rot_lines, rep_lines):
         if not lines:
             lines.append(first_problem(items) or "no result to check")

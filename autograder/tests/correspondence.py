@@ -20,11 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.results import QuestionResult
-from autograder.sandbox import Call
-from starter.checks.mistakes import points_xy_swapped
+from autograder.hidden.legacy import Call
+from judging import correspondence as jc
+from judging.verdict import Malformed
 
-from ._common import Malformed, Outcome, as_array, graded, parts, share_score, tidy
-from .hidden import Scenes, project
+from ._common import Outcome, as_array, graded, tidy
+from .hidden import Scenes
 
 __all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare"]
 
@@ -32,7 +33,6 @@ QUESTIONS = ("Q4.1", "Q4.2")
 FUNCTIONS = ("epipolarCorrespondence", "compute3D_pts")
 _SECONDS_PER_POINT = 0.5
 _SECONDS_TRIANGULATE = 5.0
-_GOAL, _FLOOR = 0.7, 0.2
 _M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
 
 
@@ -61,23 +61,19 @@ class Prepared:
 
 
 def _share_2d(pts2, truth2, tol) -> np.ndarray:
-    d = np.linalg.norm(np.asarray(pts2, float) - truth2, axis=1)
-    return np.where(np.isfinite(d), d, np.inf) <= tol
+    return jc.right_2d(pts2, truth2, tol)
 
 
 def _right_3d(w, case: Case) -> np.ndarray:
     """Points that reproject within tol of the point in image 1 and of its true match in image 2."""
-    d1 = np.linalg.norm(project(case.C1, w) - case.pts1, axis=1)
-    d2 = np.linalg.norm(project(case.C2, w) - case.truth2, axis=1)
-    d1, d2 = (np.where(np.isfinite(d), d, np.inf) for d in (d1, d2))
-    return (d1 <= case.tol) & (d2 <= case.tol)
+    return jc.right_3d(w, case.C1, case.C2, case.pts1, case.truth2, case.tol)
 
 
 def _case(key, label, scene, count, rng) -> Case:
     from solutions import compute3D_pts, epipolarCorrespondence
 
     W, H = scene.width, scene.height
-    tol = max(2.0, 3.0 * W / 640.0)
+    tol = jc.tolerance(W)
     p1 = np.column_stack([scene.x1, scene.y1]).astype(float)
     disparity = np.linalg.norm(scene.x2_true - p1, axis=1)
     margin = 8
@@ -135,71 +131,66 @@ def _judge_matches(p: Prepared, outcomes) -> QuestionResult:
                 pts2 = None
                 lines.append(str(exc))
             if pts2 is not None:
-                right = _share_2d(pts2, c.truth2, c.tol)
-                share, goal = float(right.mean()), _GOAL * c.ref_share
-                fraction = share_score(share, goal, _FLOOR * c.ref_share)
-                lines.append(f"{c.label}: {int(right.sum())} of {len(right)} matches within {c.tol:g} px of the true "
-                             f"ones ({share:.0%}; full marks from {goal:.0%})")
+                v = jc.matches(pts2, c.truth2, c.tol, c.ref_share)
+                fraction, mistakes = v.fraction, list(v.mistakes)
+                lines.append(f"{c.label}: {v.measured} of the true ones (full marks from {v.goal[3:]})")
                 errors = out.field("errors", 0)
                 if isinstance(errors, int) and errors > 0:
                     first = out.field("first_error", "")
                     lines.append(f"epipolarCorrespondence failed on {errors} points"
                                  + (f", first: {tidy(first)}" if isinstance(first, str) and first else ""))
-                reached = out.field("reached", len(right))
-                if isinstance(reached, int) and reached < len(right):
-                    lines.append(f"only {reached} of {len(right)} points were matched in the time allowed "
+                reached = out.field("reached", len(pts2))
+                if isinstance(reached, int) and reached < len(pts2):
+                    lines.append(f"only {reached} of {len(pts2)} points were matched in the time allowed "
                                  f"({_SECONDS_PER_POINT:g} s per point)")
-                swapped = points_xy_swapped(np.nan_to_num(pts2, nan=-1e9), c.truth2, c.tol)
-                mistakes += [swapped] if swapped else []
         tests.append(graded(f"matches on {c.label}", points, fraction, lines, mistakes))
     return QuestionResult.of("Q4.1", tests)
 
 
-def _w_from(value, n):
-    if isinstance(value, (tuple, list)):
-        value = parts(value, 1, "compute3D_pts")[0]
-    return as_array(value, (n, 3), "the 3D points")
+def _points_verdict(w, c: Case):
+    return jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d)
 
 
 def _judge_points(p: Prepared, outcomes) -> QuestionResult:
     c = p.points_case
     n = len(c.pts1)
-    goal, floor = _GOAL * c.ref_share_3d, _FLOOR * c.ref_share_3d
     direct = Outcome(outcomes.get("Q4.2:compute3D_pts"), "compute3D_pts").items(1)[0]
-    direct_share, direct_problem = None, ""
+    direct_v, direct_problem = None, ""
     try:
         if not direct.ok:
             raise Malformed(direct.error)
-        direct_share = float(np.mean(_right_3d(_w_from(direct.value, n), c)))
+        direct_v = _points_verdict(jc.read_points(direct.value, n), c)
     except Malformed as exc:
         direct_problem = str(exc)
     pipe = Outcome(outcomes.get("Q4.2:pipeline"), "the epipolarCorrespondence + triangulate pipeline")
-    pipe_share, pipe_problem = None, pipe.problem or ""
+    pipe_v, pipe_problem = None, pipe.problem or ""
     if not pipe.problem:
         try:
-            pipe_share = float(np.mean(_right_3d(as_array(pipe.field("w"), (n, 3), "w"), c)))
+            pipe_v = _points_verdict(as_array(pipe.field("w"), (n, 3), "w"), c)
         except Malformed as exc:
             pipe_problem = str(exc)
         err = pipe.field("error", "")
         if isinstance(err, str) and err:
             pipe_problem = tidy(err)
     lines = []
-    if direct_share is not None and (pipe_share is None or direct_share >= pipe_share):
-        share = direct_share
+    if direct_v is not None and (pipe_v is None or direct_v.fraction >= pipe_v.fraction):
+        v = direct_v
         lines.append("graded through your compute3D_pts(im1, im2, F, x1, y1, C1, C2)")
-    elif pipe_share is not None:
-        share = pipe_share
+    elif pipe_v is not None:
+        v = pipe_v
         why = f" (compute3D_pts: {direct_problem})" if direct_problem else \
             " (it placed more points right than your compute3D_pts)"
         lines.append("graded through your epipolarCorrespondence and triangulate" + why)
     else:
-        share = 0.0
+        v = None
         lines.append(f"compute3D_pts: {direct_problem or 'no result'}")
         lines.append(f"epipolarCorrespondence + triangulate: {pipe_problem or 'no result'}")
-    lines.append(f"{c.label}: {share:.0%} of the 3D points reproject within {c.tol:g} px of the point and its true "
-                 f"match (full marks from {goal:.0%})")
-    fraction = share_score(share, goal, floor)
-    return QuestionResult.of("Q4.2", [graded("3D points of the temple", 5, fraction, lines)])
+    if v is not None:
+        lines.append(f"{c.label}: {v.measured} px of the point and its true match in both images "
+                     f"(full marks from {v.goal[3:]})")
+    fraction = v.fraction if v is not None else 0.0
+    return QuestionResult.of("Q4.2", [graded("3D points of the temple", 5, fraction, lines,
+                                             v.mistakes if v is not None else ())])
 
 
 def judge(p: Prepared, outcomes) -> list[QuestionResult]:

@@ -1,6 +1,6 @@
 """Q3.1: ``essentialMatrix(F, K1, K2)`` against E = K2^T F K1, up to scale and sign.
 
-Inputs: three random rank-2 F's with random intrinsics K1 != K2 (so swapped, missing or
+Every verdict is judging.essential's.  Inputs: three random rank-2 F's with random intrinsics K1 != K2 (so swapped, missing or
 inverted K's all show), and the true F of an exact two-view scene, whose E must have two equal
 singular values and a zero one.
 """
@@ -12,10 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.results import QuestionResult
-from autograder.sandbox import Call
-from starter.checks.mistakes import essential_mistakes, same_up_to_scale
+from autograder.hidden.legacy import Call
+from judging import essential as je
+from judging.verdict import Malformed
 
-from ._common import Malformed, Outcome, as_array, fmt, graded
+from ._common import Outcome, graded
 from .hidden import Scenes
 
 __all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare"]
@@ -24,7 +25,6 @@ QUESTIONS = ("Q3.1",)
 FUNCTIONS = ("essentialMatrix",)
 _CALL = "Q3.1:essentialMatrix"
 _SECONDS_PER_CALL = 2.0
-_RTOL = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,9 +60,10 @@ def calls(p: Prepared, time_scale: float) -> list[Call]:
     return [Call(_CALL, "__hw4_each", ("essentialMatrix", items, budget), timeout=budget + 2)]
 
 
-def _gap(E, G) -> float:
-    a, b = E / np.linalg.norm(E), G / np.linalg.norm(G)
-    return float(min(np.abs(a - b).max(), np.abs(a + b).max()))
+def _E(item) -> np.ndarray:
+    if not item.ok:
+        raise Malformed(item.error)
+    return je.read_E(item.value)
 
 
 def judge(p: Prepared, outcomes) -> list[QuestionResult]:
@@ -71,35 +72,19 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
     formula_inputs = p.inputs[:-1]
     for k, ((F, K1, K2), item) in enumerate(zip(formula_inputs, items), start=1):
         try:
-            if not item.ok:
-                raise Malformed(item.error)
-            E = as_array(item.value, (3, 3), "E")
+            v = je.essential(_E(item), F, K1, K2)
         except Malformed as exc:
             lines.append(f"input {k}: {exc}")
             continue
-        expected = K2.T @ F @ K1
-        if np.all(np.isfinite(E)) and np.any(E) and same_up_to_scale(E, expected, _RTOL):
-            right += 1
-            lines.append(f"input {k}: E = K2^T F K1 up to scale")
-        else:
-            gap = _gap(E, expected) if np.all(np.isfinite(E)) and np.any(E) else float("inf")
-            lines.append(f"input {k}: E differs from K2^T F K1 (largest difference of the unit-norm "
-                         f"matrices {fmt(gap)}, goal <= {_RTOL:g})")
-            mistakes = mistakes or essential_mistakes(E, F, K1, K2, _RTOL)
+        right += v.passed
+        lines.append(f"input {k}: {v.sentence}")
+        mistakes = mistakes or list(v.mistakes)
 
     sv_lines, sv_ok = [], False
     try:
-        item = items[-1]
-        if not item.ok:
-            raise Malformed(item.error)
-        E = as_array(item.value, (3, 3), "E")
-        if not np.all(np.isfinite(E)) or not np.any(E):
-            raise Malformed("E is zero or not finite")
-        s = np.linalg.svd(E, compute_uv=False)
-        ratio2, ratio3 = s[1] / s[0], s[2] / s[0]
-        sv_ok = ratio2 >= 1 - 1e-6 and ratio3 <= 1e-6
-        sv_lines.append(f"from a true F: s2/s1 = 1 - {fmt(1 - ratio2)} and s3/s1 = {fmt(ratio3)} "
-                        "(goal: s2/s1 within 1e-6 of 1, s3/s1 below 1e-6)")
+        v = je.singular_values(_E(items[-1]))
+        sv_ok = v.passed
+        sv_lines.append(f"from a true F: {v.sentence}")
     except Malformed as exc:
         sv_lines.append(f"from a true F: {exc}")
     tests = [

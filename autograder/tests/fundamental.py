@@ -5,12 +5,13 @@ F is defined up to scale and sign, and several answers are right (refineF or not
 
 - on each scene, the RMS symmetric distance of *true* correspondences (noise-free, not the ones
   fitted) to the student's epipolar lines must stay below a goal set from the valid variants
-  (the reference with and without refineF, and a Hartley-normalised fit made here): 1.5 times
-  the worst of them plus 0.25 px.  A transposed or unscaled F misses by far more;
+  (the reference with and without refineF, and a Hartley-normalised fit made here):
+  judging.fundamental.fit_goal.  A transposed or unscaled F misses by far more;
 - F must have rank 2 (the handout requires it);
-- noise-free matches must give an F that fits them (every point within 0.05 px of its line); this
-  answer also lets the mistake catalogue name what went wrong;
-- the data files' uint16 points must give as good an F as float points.
+- noise-free matches must give an F that fits them (judging.fundamental.exact_fit); this answer
+  also lets the mistake catalogue name what went wrong;
+- the data files' uint16 points must give the same F as the same points as float.
+Every verdict is judging.fundamental's (the public self-check's too).
 """
 
 from __future__ import annotations
@@ -20,12 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.results import QuestionResult
-from autograder.sandbox import Call
-from starter.checks.mistakes import fundamental_mistakes, mistake, rank2_not_enforced
+from autograder.hidden.legacy import Call
+from core.geometry import symmetric_epipolar_distances
+from judging import fundamental as jf
+from judging.verdict import Malformed
 from starter.ransac import eightpoint_hartley
 
-from ._common import Malformed, Outcome, as_array, first_problem, fmt, graded
-from .hidden import Scenes, symmetric_distances
+from ._common import Outcome, first_problem, graded
+from .hidden import Scenes
 
 __all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare"]
 
@@ -65,7 +68,7 @@ def _hartley(pts1, pts2):
 
 
 def _rms(F, eval1, eval2) -> float:
-    d = symmetric_distances(F, eval1, eval2)
+    d = symmetric_epipolar_distances(F, eval1, eval2)
     return float(np.sqrt(np.mean(d ** 2)))
 
 
@@ -83,7 +86,7 @@ def _case(label, pts1, pts2, M, eval1, eval2) -> Case:
     p1, p2 = np.asarray(pts1, float), np.asarray(pts2, float)
     variants = [eightpoint(p1, p2, M), eightpoint(p1, p2, M, refine=False), _hartley(p1, p2)]
     worst = max(_rms(F, eval1, eval2) for F in variants)
-    return Case(label, pts1, pts2, float(M), eval1, eval2, 1.5 * worst + 0.25)
+    return Case(label, pts1, pts2, float(M), eval1, eval2, jf.fit_goal([worst]))
 
 
 def prepare(scenes: Scenes) -> Prepared:
@@ -111,12 +114,7 @@ def calls(p: Prepared, time_scale: float) -> list[Call]:
 def _F(item) -> np.ndarray:
     if not item.ok:
         raise Malformed(item.error)
-    return as_array(item.value, (3, 3), "F")
-
-
-def _rank_two(F) -> bool:
-    s = np.linalg.svd(F, compute_uv=False) if np.all(np.isfinite(F)) else np.zeros(3)
-    return bool(s[1] > 1e-9 * s[0] > 0)
+    return jf.read_F(item.value)
 
 
 def judge(p: Prepared, outcomes) -> list[QuestionResult]:
@@ -124,64 +122,52 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
     n = len(p.cases)
     items = out.items(n + 2)
     fits, lines, rank_right, rank_lines = 0, [], 0, []
-    rank_mistake = None
-    float_ok = {}
+    rank_mistakes, fit_mistakes = [], []
+    float_F = {}
     for case, item in zip(p.cases, items[:n]):
         try:
             F = _F(item)
         except Malformed as exc:
             lines.append(f"{case.label}: {exc}")
             continue
-        rms = _rms(F, case.eval1, case.eval2)
-        ok = rms <= case.goal
-        fits += ok
-        float_ok[case.label] = ok
-        lines.append(f"{case.label}: RMS distance of true matches to your epipolar lines {fmt(rms)} px "
-                     f"(goal <= {fmt(case.goal)} px){'' if ok else ': too far'}")
+        float_F[case.label] = F
+        v = jf.fit(F, case.eval1, case.eval2, case.goal, case.M)
+        fits += v.passed
+        fit_mistakes += v.mistakes
+        lines.append(f"{case.label}: {v.sentence}{'' if v.passed else ': too far'}")
         # Rank counts only for an F of the scene: a zero or made-up rank-2 matrix earns nothing.
-        r = rank2_not_enforced(F, case.M)
-        rank_mistake = rank_mistake or r
-        if r is not None:
-            rank_lines.append(f"{case.label}: full rank ({r.evidence})")
-        elif not _rank_two(F):
-            rank_lines.append(f"{case.label}: rank below 2")
-        elif ok:
-            rank_right += 1
-            rank_lines.append(f"{case.label}: rank 2")
-        else:
-            rank_lines.append(f"{case.label}: rank 2, but F does not fit the scene")
+        r = jf.rank_two(F, case.M)
+        rank_mistakes += r.mistakes
+        rank_right += r.passed and v.passed
+        rank_lines.append(f"{case.label}: {r.measured}" + ("" if v.passed or not r.passed else
+                                                           ", but F does not fit the scene"))
 
-    mistakes = []
-    exact_lines = []
-    exact_ok = False
+    mistakes, exact_lines, exact_ok = [], [], False
     try:
-        F_exact = _F(items[n])
-        d = symmetric_distances(F_exact, p.exact.eval1, p.exact.eval2)
-        worst = float(np.max(d))
-        exact_ok = worst <= p.exact.goal
-        exact_lines.append(f"largest distance of a noise-free match to its epipolar line {fmt(worst)} px "
-                           f"(goal <= {fmt(p.exact.goal)} px)")
-        mistakes = fundamental_mistakes(F_exact, p.exact.eval1, p.exact.eval2, p.exact.M)
+        v = jf.exact_fit(_F(items[n]), p.exact.eval1, p.exact.eval2, p.exact.M)
+        exact_ok, mistakes = v.passed, list(v.mistakes)
+        exact_lines.append(v.sentence)
     except Malformed as exc:
         exact_lines.append(str(exc))
 
     u16_lines, u16_ok, u16_mistakes = [], False, []
+    base_label = p.uint16.label.rsplit(",", 1)[0]
     try:
         F16 = _F(items[n + 1])
-        rms = _rms(F16, p.uint16.eval1, p.uint16.eval2)
-        u16_ok = rms <= p.uint16.goal
-        u16_lines.append(f"{p.uint16.label}: RMS distance of true matches {fmt(rms)} px (goal <= {fmt(p.uint16.goal)} px)")
-        base_label = p.uint16.label.rsplit(",", 1)[0]
-        if not u16_ok and float_ok.get(base_label):
-            u16_mistakes = [mistake("uint16_wraparound", "the same points as float64 give a good F")]
+        if base_label in float_F:
+            v = jf.uint16_same(F16, float_F[base_label])
+        else:
+            v = jf.uint16_same(F16, np.zeros((3, 3)))
+        u16_ok, u16_mistakes = v.passed, list(v.mistakes)
+        u16_lines.append(f"{p.uint16.label}: {v.sentence}")
     except Malformed as exc:
         u16_lines.append(str(exc))
 
     if not rank_lines:
         rank_lines.append(first_problem(items[:n]) or "no F to check")
     tests = [
-        graded("F fits the true matches of every scene", 5, fits / n, lines, mistakes),
-        graded("F has rank 2 (counted where F fits)", 2, rank_right / n, rank_lines, [rank_mistake]),
+        graded("F fits the true matches of every scene", 5, fits / n, lines, mistakes or fit_mistakes),
+        graded("F has rank 2 (counted where F fits)", 2, rank_right / n, rank_lines, rank_mistakes),
         graded("noise-free matches give an exact F", 2, float(exact_ok), exact_lines, mistakes),
         graded("the data files' uint16 points work as well as float ones", 1, float(u16_ok), u16_lines,
                u16_mistakes),

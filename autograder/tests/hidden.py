@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.config import GradingConfig
+from core.geometry import CameraPair
 from starter.data import TempleData
 
-__all__ = ["Scenes", "TempleCase", "TwoView", "make_scenes", "project", "skew", "symmetric_distances"]
+__all__ = ["Scenes", "TempleCase", "make_scenes"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,31 +62,6 @@ class TempleCase:
 
 
 @dataclass(frozen=True, eq=False)
-class TwoView:
-    """Exact two-view data whose cameras have different intrinsics (so K1 and K2 cannot be mixed up).
-
-    K1, K2 : (3, 3); M2 : (3, 4) true [R | t] with |t| = 1; X : (N, 3) world points in front of
-    both cameras; pts1, pts2 : (N, 2) exact projections; F : (3, 3) true F, unit norm.
-    """
-
-    K1: np.ndarray
-    K2: np.ndarray
-    M2: np.ndarray
-    X: np.ndarray
-    pts1: np.ndarray
-    pts2: np.ndarray
-    F: np.ndarray
-
-    @property
-    def C1(self) -> np.ndarray:
-        return self.K1 @ np.hstack([np.eye(3), np.zeros((3, 1))])
-
-    @property
-    def C2(self) -> np.ndarray:
-        return self.K2 @ self.M2
-
-
-@dataclass(frozen=True, eq=False)
 class Scenes:
     """Every scene the hidden inputs are cut from (see the module docstring)."""
 
@@ -95,7 +71,7 @@ class Scenes:
     official: TempleCase | None
     car: object
     probe_car: object
-    two_view: TwoView
+    two_view: CameraPair      # exact data whose cameras have different intrinsics, |t| = 1
 
     def temple_cases(self, *, official: bool = True, default: bool = True) -> list[TempleCase]:
         """Hidden scenes first, then the default data and the official data when wanted and present."""
@@ -132,54 +108,12 @@ def make_scenes(config: GradingConfig) -> Scenes:
     return Scenes(config, hidden, default, official, car, probe_car, _two_view(hidden[-1].scene))
 
 
-def _two_view(scene) -> TwoView:
+def _two_view(scene) -> CameraPair:
     # The temple's geometry, with a camera 2 whose focal length and principal point differ from
     # camera 1's, and t scaled to unit length (the scale that camera2 returns).
-    K1 = scene.K1.copy()
-    K2 = K1.copy()
+    K2 = scene.K1.copy()
     K2[0, 0] *= 1.07
     K2[1, 1] *= 1.05
     K2[0, 2] += 0.03 * scene.width
     K2[1, 2] -= 0.02 * scene.height
-    scale = np.linalg.norm(scene.t)
-    M2 = np.hstack([scene.R, (scene.t / scale)[:, None]])
-    X = scene.X / scale
-    C1 = K1 @ np.hstack([np.eye(3), np.zeros((3, 1))])
-    F = np.linalg.inv(K2).T @ skew(M2[:, 3]) @ M2[:, :3] @ np.linalg.inv(K1)
-    return TwoView(K1, K2, M2, X, project(C1, X), project(K2 @ M2, X), F / np.linalg.norm(F))
-
-
-# ------------------------------------------------------------------------------- geometry
-
-
-def project(C: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """Pixels (N, 2) of points X (N, 3) through C (3, 4); NaN where the depth is zero."""
-    with np.errstate(all="ignore"):  # student points may be huge or NaN; they just come out wrong
-        h = np.asarray(X, float) @ C[:, :3].T + C[:, 3]
-        return h[:, :2] / h[:, 2:]
-
-
-def skew(v) -> np.ndarray:
-    """[v]x (3, 3), so that skew(v) @ w == cross(v, w)."""
-    x, y, z = np.asarray(v, float).reshape(3)
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def symmetric_distances(F: np.ndarray, pts1: np.ndarray, pts2: np.ndarray) -> np.ndarray:
-    """Symmetric epipolar distances (2N,): x2 to the line F x1, and x1 to the line F^T x2 (pixels).
-
-    Invariant to the scale and sign of F; inf where a line is undefined or F is not finite.
-    """
-    F = np.asarray(F, float)
-    if F.shape != (3, 3) or not np.all(np.isfinite(F)) or not np.any(F):
-        return np.full(2 * len(pts1), np.inf)
-    h1 = np.column_stack([pts1, np.ones(len(pts1))])
-    h2 = np.column_stack([pts2, np.ones(len(pts2))])
-    l2 = h1 @ F.T
-    l1 = h2 @ F
-    num = np.abs(np.sum(h2 * l2, axis=1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d2 = num / np.hypot(l2[:, 0], l2[:, 1])
-        d1 = num / np.hypot(l1[:, 0], l1[:, 1])
-    d = np.concatenate([d2, d1])
-    return np.where(np.isfinite(d), d, np.inf)
+    return CameraPair(scene.K1.copy(), K2, scene.M2, scene.X).unit_baseline()

@@ -18,10 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.results import QuestionResult
-from autograder.sandbox import Call
-from starter.checks.mistakes import threshold_mistakes
+from autograder.hidden.legacy import Call
+from judging import multiview as jm
+from judging.verdict import Malformed
 
-from ._common import Malformed, Outcome, as_array, fmt, graded, parts
+from ._common import Outcome, as_array, graded
 from .hidden import Scenes
 
 __all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare"]
@@ -68,7 +69,7 @@ def _sequence(car, thres: int) -> tuple[Step, ...]:
         judged = np.all(np.isfinite(P_ref), axis=1)
         ref_err = float(np.mean(np.linalg.norm(P_ref[judged] - car.P_true[t][judged], axis=1)))
         steps.append(Step(f"time step {t + 1}", np.array(C), np.array(pts), thres, car.P_true[t], judged,
-                          1.5 * ref_err + 0.01))
+                          jm.sequence_goal(ref_err)))
     return tuple(steps)
 
 
@@ -143,10 +144,7 @@ def drawn_share(drawn: np.ndarray, video: np.ndarray) -> float:
 def _P(item, n) -> np.ndarray:
     if not item.ok:
         raise Malformed(item.error)
-    value = item.value
-    if isinstance(value, (tuple, list)):
-        value = parts(value, 1, "MultiviewReconstruction")[0]
-    return as_array(value, (n, 3), "P")
+    return jm.read_P(item.value, n)
 
 
 def judge(p: Prepared, outcomes) -> list[QuestionResult]:
@@ -162,22 +160,15 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
         except Malformed as exc:
             lines.append(f"{step.label}: {exc}")
             continue
-        d = np.linalg.norm(P - step.P_true, axis=1)
-        d = np.where(np.isfinite(d), d, np.inf)
         if is_probe:
-            right = d <= step.goal
-            ok = bool(np.all(right))
-            probe_right += ok
-            lines.append(f"{step.label} (Thres = {step.Thres}): {int(right.sum())} of {len(right)} keypoints right")
-            if not ok:
-                conf = step.pts[:, :, 2].T
-                mistakes += threshold_mistakes(P, step.P_true, conf, step.Thres, step.goal)
+            v = jm.threshold_probe(P, step.P_true, step.pts[:, :, 2].T, step.Thres, step.goal)
+            probe_right += v.passed
+            mistakes += v.mistakes
+            lines.append(f"{step.label} (Thres = {step.Thres}): {v.measured.split(' within')[0]} keypoints right")
         else:
-            mean = float(np.mean(d[step.judged]))
-            ok = mean <= step.goal
-            seq_right += ok
-            lines.append(f"{step.label}: mean distance of your keypoints from the true ones {fmt(mean)} m "
-                         f"(goal <= {fmt(step.goal)} m)")
+            v = jm.sequence(P, step.P_true, step.judged, step.goal)
+            seq_right += v.passed
+            lines.append(f"{step.label}: {v.measured} m of your keypoints from the true ones (goal {v.goal} m)")
     plot = Outcome(outcomes.get(_PLOT), "plot_3d_keypoint_video").items(1)[0]
     drew, plot_lines = False, [plot.error]
     if plot.ok:

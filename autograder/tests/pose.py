@@ -5,6 +5,7 @@ with the right candidate by rotation angle and direction of t only.  The right c
 one nearest the true pose (the reference's choice on the official data, which has no truth).
 Inputs: an exact scene with K1 != K2 and its true F, and hidden scenes with the F the reference
 estimates from their noisy matches.  C2 must be K2 M2, and w the points triangulated with it.
+Every verdict is judging.pose's.
 """
 
 from __future__ import annotations
@@ -14,11 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.results import QuestionResult
-from autograder.sandbox import Call
-from starter.checks.mistakes import points_behind_cameras, wrong_camera
+from autograder.hidden.legacy import Call
+from judging import pose as jp
+from judging.pose import pose_gap
+from judging.verdict import Malformed
 
-from ._common import Malformed, Outcome, as_array, first_problem, fmt, graded, parts
-from .hidden import Scenes, project
+from ._common import Outcome, first_problem, graded
+from .hidden import Scenes
 
 __all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "pose_gap", "prepare"]
 
@@ -26,8 +29,6 @@ QUESTIONS = ("Q3.3",)
 FUNCTIONS = ("findM2",)
 _CALL = "Q3.3:findM2"
 _SECONDS_PER_CALL = 5.0
-_ROT_TOL_DEG = 0.5
-_DIR_TOL_DEG = 1.0
 _M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
 
 
@@ -45,22 +46,6 @@ class Case:
 @dataclass(frozen=True, eq=False)
 class Prepared:
     cases: tuple[Case, ...]
-
-
-def _angle(u, v) -> float:
-    nu, nv = np.linalg.norm(u), np.linalg.norm(v)
-    if not (np.isfinite(nu) and np.isfinite(nv)) or nu == 0 or nv == 0:
-        return 180.0
-    return float(np.degrees(np.arccos(np.clip(np.dot(u, v) / (nu * nv), -1.0, 1.0))))
-
-
-def pose_gap(M2, right) -> tuple[float, float]:
-    """(rotation angle between the R's, angle between the t's), degrees; 180 for unusable input."""
-    if not np.all(np.isfinite(M2)):
-        return 180.0, 180.0
-    R, Rr = M2[:, :3], right[:, :3]
-    c = (np.trace(R.T @ Rr) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))), _angle(M2[:, 3], right[:, 3])
 
 
 def _nearest(candidates: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -100,41 +85,22 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
         try:
             if not item.ok:
                 raise Malformed(item.error)
-            value = item.value
-            M2 = as_array(value if isinstance(value, np.ndarray) else parts(value, 1, "findM2")[0], (3, 4), "M2")
+            M2, C2, w = jp.read_findM2(item.value, len(case.pts1))
         except Malformed as exc:
             lines.append(f"{case.label}: {exc}")
             continue
-        rot, direction = pose_gap(M2, case.right)
-        ok = rot <= _ROT_TOL_DEG and direction <= _DIR_TOL_DEG
-        right += ok
-        lines.append(f"{case.label}: your M2 is {fmt(rot)} deg (rotation) and {fmt(direction)} deg (direction "
-                     f"of t) from the right camera (goal <= {_ROT_TOL_DEG:g} and {_DIR_TOL_DEG:g} deg)")
-        if not ok:
-            mistakes += [m for m in (wrong_camera(M2, case.right),) if m]
-        try:
-            C2, w = parts(value, 3, "findM2")[1:]
-            C2 = as_array(C2, (3, 4), "C2")
-            w = as_array(w, (len(case.pts1), 3), "w")
-        except Malformed as exc:
-            cons_lines.append(f"{case.label}: {exc}")
-            continue
-        expected_C2 = case.K2 @ M2
-        c2_ok = np.allclose(C2, expected_C2, rtol=1e-6, atol=1e-9 * np.abs(expected_C2).max())
-        C1 = case.K1 @ _M1
-        _, ref_err = triangulate(C1, case.pts1, C2, case.pts2) if c2_ok else (None, np.inf)
-        h = [p_ - project(C, w) for C, p_ in ((C1, case.pts1), (C2, case.pts2))]
-        err = float(sum(np.sum(r ** 2) for r in h)) if np.all(np.isfinite(w)) else float("inf")
-        w_ok = c2_ok and err <= 1.05 * ref_err + 1e-6
-        consistent += w_ok
-        behind = points_behind_cameras(w, _M1, M2) if np.all(np.isfinite(w)) else None
-        if behind:
-            mistakes.append(behind)
-        if not c2_ok:
-            cons_lines.append(f"{case.label}: C2 is not K2 @ M2")
-        else:
-            cons_lines.append(f"{case.label}: reprojection error of w with C1 and your C2 {fmt(err)} px^2 "
-                              f"(goal <= {fmt(1.05 * ref_err + 1e-6)} px^2)")
+        v = jp.right_camera(M2, case.right)
+        right += v.passed
+        lines.append(f"{case.label}: {v.sentence}")
+        mistakes += v.mistakes
+        linear_err = np.inf
+        if np.all(np.isfinite(M2)):
+            with np.errstate(all="ignore"):
+                linear_err = triangulate(case.K1 @ _M1, case.pts1, case.K2 @ M2, case.pts2)[1]
+        c = jp.outputs(M2, C2, w, case.K1, case.K2, case.pts1, case.pts2, linear_err)
+        consistent += c.passed
+        mistakes += c.mistakes
+        cons_lines.append(f"{case.label}: {c.sentence}")
     n = len(p.cases)
     if not cons_lines:
         cons_lines.append(first_problem(items) or "no result to check")

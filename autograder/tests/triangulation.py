@@ -5,6 +5,7 @@
   reprojection error of the student's points, recomputed here, must be within 5 % of the
   reference's linear triangulation (a better method, e.g. optimal triangulation, is welcome).
 - ``err`` must be the total squared reprojection error of the points returned (both images).
+Every verdict is judging.triangulation's.
 """
 
 from __future__ import annotations
@@ -14,22 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from autograder.results import QuestionResult
-from autograder.sandbox import Call
-from starter.checks.mistakes import error_not_sum_of_squares, points_behind_cameras
+from autograder.hidden.legacy import Call
+from judging import triangulation as jt
+from judging.verdict import Malformed
 
-from ._common import (
-    Malformed,
-    Outcome,
-    as_array,
-    as_number,
-    first_problem,
-    fmt,
-    graded,
-    parts,
-)
-from .hidden import Scenes, project
+from ._common import Outcome, first_problem, graded
+from .hidden import Scenes
 
-__all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare", "reprojection_residuals"]
+__all__ = ["FUNCTIONS", "QUESTIONS", "calls", "judge", "prepare"]
 
 QUESTIONS = ("Q3.2",)
 FUNCTIONS = ("triangulate",)
@@ -46,7 +39,7 @@ class Case:
     C2: np.ndarray
     pts2: np.ndarray
     M2: np.ndarray
-    goal: float              # largest accepted total squared reprojection error (noisy cases)
+    goal: float              # the reference's (linear) triangulation error on the noisy cases
     X: np.ndarray | None = None   # true points (exact case)
 
 
@@ -54,11 +47,6 @@ class Case:
 class Prepared:
     exact: Case
     noisy: tuple[Case, ...]
-
-
-def reprojection_residuals(C1, pts1, C2, pts2, w) -> tuple[np.ndarray, np.ndarray]:
-    """x - proj(C, w) in image 1 and image 2, each (N, 2)."""
-    return pts1 - project(C1, w), pts2 - project(C2, w)
 
 
 def prepare(scenes: Scenes) -> Prepared:
@@ -75,7 +63,7 @@ def prepare(scenes: Scenes) -> Prepared:
             M2 = findM2(eightpoint(tc.pts1, tc.pts2, tc.M), tc.pts1, tc.pts2, tc.K1, tc.K2)[0]
         C2 = tc.K2 @ M2
         _, err = triangulate(C1, tc.pts1, C2, tc.pts2)
-        noisy.append(Case(tc.label, C1, tc.pts1, C2, tc.pts2, M2, 1.05 * err + 1e-6))
+        noisy.append(Case(tc.label, C1, tc.pts1, C2, tc.pts2, M2, err))
     return Prepared(exact, tuple(noisy))
 
 
@@ -89,8 +77,7 @@ def read_w_err(item, n: int) -> tuple[np.ndarray, object]:
     """(w (n, 3), err as returned) from a triangulate record, or Malformed."""
     if not item.ok:
         raise Malformed(item.error)
-    w, err = parts(item.value, 2, "triangulate")
-    return as_array(w, (n, 3), "w"), err
+    return jt.read_w_err(item.value, n)
 
 
 def judge(p: Prepared, outcomes) -> list[QuestionResult]:
@@ -106,33 +93,22 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
         except Malformed as exc:
             (exact_lines if case is p.exact else noisy_lines).append(f"{case.label}: {exc}")
             continue
-        res1, res2 = reprojection_residuals(case.C1, case.pts1, case.C2, case.pts2, w)
-        total = float(np.sum(res1 ** 2) + np.sum(res2 ** 2)) if np.all(np.isfinite(w)) else float("inf")
         if case is p.exact:
-            gap = float(np.max(np.abs(w - case.X))) if np.all(np.isfinite(w)) else float("inf")
-            tol = 1e-6 * max(1.0, float(np.abs(case.X).max()))
-            exact_ok = gap <= tol
-            exact_lines.append(f"{case.label}: largest distance of your points from the true ones {fmt(gap)} "
-                               f"(goal <= {tol:.1g})")
+            v = jt.exact_points(w, case.X, case.M2)
+            exact_ok = v.passed
+            exact_lines.append(f"{case.label}: {v.sentence}")
         else:
-            ok = total <= case.goal
-            noisy_right += ok
-            noisy_lines.append(f"{case.label}: total squared reprojection error of your points {fmt(total)} px^2 "
-                               f"(goal <= {fmt(case.goal)} px^2)")
-            if not ok:
-                behind = points_behind_cameras(w, _M1, case.M2)
-                geo_mistakes += [behind] if behind else []
+            v = jt.noisy_error(w, case.C1, case.pts1, case.C2, case.pts2, case.goal, case.M2)
+            noisy_right += v.passed
+            noisy_lines.append(f"{case.label}: {v.sentence}")
+        geo_mistakes += v.mistakes
         err_total += 1
-        m = error_not_sum_of_squares(err, res1, res2)
-        if m is None:
+        e = jt.err_reported(err, w, case.C1, case.pts1, case.C2, case.pts2)
+        if e.passed:
             err_right += 1
         else:
-            err_mistakes.append(m)
-            try:
-                reported = fmt(as_number(err, "err"))
-            except Malformed:
-                reported = "not a number"
-            err_lines.append(f"{case.label}: err = {reported}, but your points give {fmt(total)} px^2")
+            err_mistakes += e.mistakes
+            err_lines.append(f"{case.label}: {e.measured}, but your points give {e.goal.split(' from')[0]} px^2")
     if err_total == 0:
         err_lines.append(first_problem(items) or "no (w, err) to check")
     elif err_right == err_total:
