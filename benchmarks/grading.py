@@ -41,8 +41,8 @@ def main(argv=None) -> int:
     import corpus
 
     from autograder.config import GradingConfig, quick_config
-    from autograder.grade import grade_batch
-    from autograder.tests import build_hidden_inputs
+    from autograder.batch import grade_batch
+    from autograder.hidden.inputs import build_hidden_inputs
 
     config = quick_config() if args.quick else GradingConfig()
     root = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="hw4-grading-bench-"))

@@ -189,7 +189,7 @@ def test_course_folder_layout(tmp_path, grading_settings):
     course = nc.build_course(tmp_path / "course", stems=["q1_proofs", "q2_eightpoint"])
     assert sorted(p.name for p in (course / "source" / "hw4").iterdir()) == ["q1_proofs.ipynb", "q2_eightpoint.ipynb"]
     for needed in ("starter/__init__.py", "scenes/__init__.py", "autograder/grade.py", "autograder/nbgrader_course.py",
-                   "solutions/__init__.py", "kit/manifest.py", "data/temple", "nbgrader_config.py", "README.md"):
+                   "solutions/__init__.py", "core/manifest.py", "autograder/hidden/pytest.ini", "data/temple", "nbgrader_config.py", "README.md"):
         assert (course / needed).exists(), needed
     assert not (course / "tests").exists() and not (course / "notebooks").exists()
     settings = course / "grader_config.json"
