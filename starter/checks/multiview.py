@@ -9,6 +9,7 @@ import numpy as np
 
 from core.geometry import project
 from judging import multiview as jm
+from judging.verdict import Malformed, read_number
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
 from ._scenes import PUBLIC_SEED, car_frame, default_car
@@ -81,32 +82,29 @@ def check_MultiviewReconstruction(MultiviewReconstruction, *, probes=None, seque
         C, P_true, pts = _generated()
         probes = [] if explicit else [SimpleNamespace(label="generated", C=C, pts=pts, Thres=THRES, P_true=P_true,
                                                       goal=_TOL_M)]
-    first = True
-    for step in probes:
+    todo = [(step, True) for step in probes] + [(step, False) for step in sequence or ()]
+    for k, (step, is_probe) in enumerate(todo):
         out = _call(MultiviewReconstruction, step.C, step.pts, step.Thres)
-        if first and stop_if_not_implemented(report, out):
+        if k == 0 and stop_if_not_implemented(report, out):
             return finish(report, verbose)
-        first = False
         if run_failed(report, out, step.label):
             continue
         P = read_or_report(report, jm.read_P, out.value, len(step.P_true), label=f"returns (P (N, 3), err) ({step.label})")
-        if P is not None:
-            conf = np.stack([np.asarray(p)[:, 2] for p in step.pts], axis=1)
-            report.judged(jm.threshold_probe(P, step.P_true, conf, step.Thres, step.goal), step.label)
-            err = out.value[1] if isinstance(out.value, (tuple, list)) and len(out.value) > 1 else None
-            if not explicit and not (np.size(err) == 1 and 0 <= float(np.asarray(err, float).reshape(())) <= 1e-3):
-                report.notes.append("err over the detections used should be about 0 on the generated frame "
-                                    "(every detection used is exact)")
-    for step in sequence or ():
-        out = _call(MultiviewReconstruction, step.C, step.pts, step.Thres)
-        if first and stop_if_not_implemented(report, out):
-            return finish(report, verbose)
-        first = False
-        if run_failed(report, out, step.label):
+        if P is None:
             continue
-        P = read_or_report(report, jm.read_P, out.value, len(step.P_true), label=f"returns (P (N, 3), err) ({step.label})")
-        if P is not None:
+        if not is_probe:
             report.judged(jm.sequence(P, step.P_true, step.judged, step.goal), step.label)
+            continue
+        conf = np.stack([np.asarray(p)[:, 2] for p in step.pts], axis=1)
+        report.judged(jm.threshold_probe(P, step.P_true, conf, step.Thres, step.goal), step.label)
+        try:
+            err = read_number(out.value[1], "err") if isinstance(out.value, (tuple, list)) else None
+        except (Malformed, IndexError):
+            err = None
+        if not explicit and not (err is not None and 0 <= err <= 1e-3):
+            # Advice only: the hidden tests do not judge err, so neither does the verdict here.
+            report.notes.append("err over the detections used should be about 0 on the generated frame "
+                                "(every detection used is exact)")
 
     frame, note = default_car(root) if not explicit else (None, "")
     if not explicit and frame is None:
