@@ -181,5 +181,5 @@ def reported_errors(o1, o2, M2, w, K1, K2, p1, p2, M2_init, w_init) -> Verdict:
             if np.all(np.isfinite(q1)) and np.all(np.isfinite(q2)):
                 found.append(error_not_sum_of_squares(v2, q1, q2, rtol=1e-3))
             found.append(error_not_sum_of_squares(v1, r1, r2, rtol=1e-3))
-    return Verdict.of(what, good, f"o1 = {fmt(v1, 6)}, o2 = {fmt(v2, 6)}",
-                      f"{fmt(start, 6)} and {fmt(err, 6)} from your start and result", [m for m in found if m][:1])
+    return Verdict.of(what, good, f"o1 = {fmt(v1)}, o2 = {fmt(v2)}",
+                      f"{fmt(start)} and {fmt(err)} from your start and result", [m for m in found if m][:1])

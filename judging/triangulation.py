@@ -85,7 +85,7 @@ def err_reported(err, w, C1, pts1, C2, pts2) -> Verdict:
         return Verdict.of(what, False, "w does not project to finite pixels", "")
     m = error_not_sum_of_squares(err, r1, r2, rtol=ERR_RTOL)
     try:
-        shown = fmt(read_number(err, "err"), 6)
+        shown = fmt(read_number(err, "err"))
     except Malformed:
         shown = "not a number"
-    return Verdict.of(what, m is None, f"err = {shown}", f"{fmt(total, 6)} from your w", [m])
+    return Verdict.of(what, m is None, f"err = {shown}", f"{fmt(total)} from your w", [m])
