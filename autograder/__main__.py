@@ -1,6 +1,7 @@
 """``python -m autograder``: grade submissions, write the answer-key submission.
 
   grade SUBMISSION... --out DIR [--jobs N]   grade folders or .zip files of notebooks into DIR
+        [--hidden-dir PATH]                   (with more hidden checks: pytest tests, see autograder/hidden)
   key --out DIR                               write the answer-key submission (scores full marks)
 
   gradescope ...                              build the Gradescope autograder zip, or run inside it
@@ -22,14 +23,14 @@ from core.commands import run
 
 def _grade(args) -> int:
     from .config import load_config
-    from .grade import grade_batch
+    from .batch import grade_batch
 
     config = load_config(args.config)
     if config.is_dev:
         print("warning: grading with the development secret, so the hidden scenes are the public "
               "defaults; set HW4_GRADER_SECRET or HW4_GRADER_CONFIG for real grading", file=sys.stderr)
     records = grade_batch(args.submissions, args.out, jobs=args.jobs, config=config, resume=not args.no_resume,
-                          progress=not args.quiet, isolation=args.isolation)
+                          progress=not args.quiet, isolation=args.isolation, extra_tests=args.hidden_dir)
     graded = sum(not r.skipped for r in records)
     failed = [r.name for r in records if r.failure]
     print(f"{len(records)} submissions ({graded} graded now, {len(records) - graded} already done); "
@@ -40,13 +41,13 @@ def _grade(args) -> int:
 
 
 def _key(args) -> int:
-    from .grade import write_key_submission
+    from .key import write_key_submission
 
     path = write_key_submission(args.out, zip_it=not args.no_zip)
     print(f"answer-key submission: {path}")
     if args.grade:
         from .config import load_config
-        from .grade import grade_batch
+        from .batch import grade_batch
 
         record = grade_batch([path], Path(args.out) / "graded", config=load_config(args.config),
                              resume=False, progress=False)[0]
@@ -63,6 +64,8 @@ def _grade_arguments(p) -> None:
     p.add_argument("--isolation", default="auto", choices=["auto", "namespaces", "user-namespaces", "basic"],
                    help="sandbox level (default: the strongest that works here)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--hidden-dir", default=None,
+                   help="a folder of more hidden checks (pytest test files) to run with the kit's own")
 
 
 def _key_arguments(p) -> None:
