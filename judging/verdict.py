@@ -79,7 +79,8 @@ class Verdict:
 
 
 def fmt(x, digits: int = 3) -> str:
-    """A figure for a sentence: ``digits`` significant digits; 'infinite' and 'not finite' spelled out."""
+    """A figure for a sentence: ``digits`` significant digits (small ones in exponent form);
+    'infinite' and 'not finite' spelled out."""
     try:
         v = float(x)
     except (TypeError, ValueError):
@@ -88,6 +89,8 @@ def fmt(x, digits: int = 3) -> str:
         return "not finite"
     if math.isinf(v):
         return "infinite"
+    if v != 0 and abs(v) < 1e-2:
+        return f"{v:.{max(digits - 1, 0)}e}"   # 3.09e-04, never a long run of digits like 0.000309
     return f"{v:.{digits}g}"
 
 
