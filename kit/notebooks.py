@@ -241,7 +241,12 @@ class Extracted:
     header: the def line(s) and the docstring; body: the lines after the docstring;
     helpers: (name, source) of the module-level helpers it needs, in module order;
     imports: the module's import statements it (or its helpers) uses, trimmed to those names;
-    needs: other homework functions it calls (defined in the same or another notebook).
+    needs: other homework functions it calls (defined in the same or another notebook);
+    contract: what students see of the def: ``header`` without the reference's keyword-only
+    parameters (the kit's own switches, never the handout's) and without the docstring's
+    ``METHOD_SECTION`` and everything after it;
+    switches: ``name = default`` for each keyword-only parameter, which the nbgrader region
+    binds so that the body still runs under the handout's signature.
     """
 
     name: str
@@ -252,6 +257,13 @@ class Extracted:
     helpers: tuple[tuple[str, str], ...]
     imports: tuple[str, ...]
     needs: tuple[str, ...]
+    contract: str = ""
+    switches: tuple[str, ...] = ()
+
+
+# The docstring heading (numpy style, underlined) from which a reference docstring is the answer
+# key's only: the method, formulas and tuned constants.  Students get the docstring above it.
+METHOD_SECTION = "Method (answer key only)"
 
 
 _ALL_FUNCTIONS = tuple(f for q in QUESTIONS for f in q.functions)
@@ -365,7 +377,42 @@ def extract_function(name: str, solutions_dir: Path | None = None) -> Extracted:
     return Extracted(
         name=name, module=path.stem, source="\n".join(_lines(text, fn)), header=header,
         body=body, helpers=tuple((h, "\n".join(_lines(text, defs[h]))) for h in helpers),
-        imports=tuple(kept), needs=tuple(sorted(needs)))
+        imports=tuple(kept), needs=tuple(sorted(needs)),
+        contract=_contract(fn, lines, path.name), switches=_switches(fn))
+
+
+def _contract(fn: ast.FunctionDef, lines: list[str], where: str) -> str:
+    """The def line(s) and docstring a student sees (see ``Extracted.contract``)."""
+    args = fn.args
+    if args.kwonlyargs:
+        if args.vararg or any(d is None for d in args.kw_defaults):
+            raise SourceError(f"{where}: {fn.name}'s keyword-only parameters are the kit's switches and "
+                              "need defaults (and no *args), so that the handout's call still works")
+        plain = ast.arguments(posonlyargs=args.posonlyargs, args=args.args, vararg=None, kwonlyargs=[],
+                              kw_defaults=[], kwarg=args.kwarg, defaults=args.defaults)
+        indent = lines[fn.lineno - 1][:len(lines[fn.lineno - 1]) - len(lines[fn.lineno - 1].lstrip())]
+        decorators = [line for d in fn.decorator_list for line in lines[d.lineno - 1:d.end_lineno]]
+        def_lines = decorators + [f"{indent}def {fn.name}({ast.unparse(plain)}):"]
+    else:
+        start = min([fn.lineno] + [d.lineno for d in fn.decorator_list])
+        def_lines = lines[start - 1:fn.body[0].lineno - 1]
+    doc = lines[fn.body[0].lineno - 1:fn.body[0].end_lineno]
+    cut = next((i for i, line in enumerate(doc) if line.strip() == METHOD_SECTION), None)
+    if cut is not None:
+        if cut == 0 or cut + 1 >= len(doc) or set(doc[cut + 1].strip()) != {"-"}:
+            raise SourceError(f"{where}: {fn.name}'s {METHOD_SECTION!r} must be a docstring section "
+                              "heading (underlined with dashes) after the contract")
+        kept = doc[:cut]
+        while kept and not kept[-1].strip():
+            kept.pop()
+        quote = doc[-1].strip()[-3:]
+        doc = kept + [doc[-1][:len(doc[-1]) - len(doc[-1].lstrip())] + quote]
+    return "\n".join(def_lines + doc)
+
+
+def _switches(fn: ast.FunctionDef) -> tuple[str, ...]:
+    return tuple(f"{a.arg} = {ast.unparse(d)}" for a, d in zip(fn.args.kwonlyargs, fn.args.kw_defaults)
+                 if d is not None)
 
 
 # ------------------------------------------------------------------- step 3: blocks -> cells
@@ -409,7 +456,7 @@ def _clear_regions(text: str, variant: str, where: str) -> tuple[str, bool]:
 
 def _solution_text(ext: Extracted, variant: str, emitted_helpers: set[str]) -> str:
     if variant == "student":
-        return ext.header + "\n" + textwrap.indent(NBGRADER_STUB, "    ")
+        return ext.contract + "\n" + textwrap.indent(NBGRADER_STUB, "    ")
     if variant == "key":
         new = [(n, s) for n, s in ext.helpers if n not in emitted_helpers]
         emitted_helpers.update(n for n, _ in new)
@@ -420,10 +467,12 @@ def _solution_text(ext: Extracted, variant: str, emitted_helpers: set[str]) -> s
         return "\n\n\n".join(parts)
     # nbgrader: the helpers and imports the body needs go inside the region, nested in the
     # function, because nbgrader turns a region into a stub that must still run.
-    inner = (["\n".join(ext.imports)] if ext.imports else []) \
+    # The kit's keyword-only switches are bound to their defaults: the def is the handout's.
+    inner = (["\n".join(ext.switches)] if ext.switches else []) \
+        + (["\n".join(ext.imports)] if ext.imports else []) \
         + [s for _, s in ext.helpers] + [textwrap.dedent(ext.body)]
     region = "\n\n".join(textwrap.indent(p, "    ") for p in inner)
-    return f"{ext.header}\n    {BEGIN}\n{region}\n    {END}"
+    return f"{ext.contract}\n    {BEGIN}\n{region}\n    {END}"
 
 
 def _binds_used(stmt: str, names: set[str], dotted: set[str]) -> bool:

@@ -80,8 +80,11 @@ def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
     Returns
     -------
     M2 : (3, 4) refined [R | t];  w : (N, 3) refined points;
-    o1, o2 : total squared reprojection error (pixels^2) before and after.
+    o1, o2 : total squared reprojection error (pixels^2) before and after, the squared norm of
+        ``rodriguesResidual`` at the start and at the end.
 
+    Method (answer key only)
+    ------------------------
     Solved with scipy.optimize.least_squares (Levenberg-Marquardt); the residuals of a point
     depend on that point and camera 2 only, so the Jacobian costs 3 + 5 evaluations.  The scale of the scene is
     free (points and t can shrink together), so |t2| is held at its initial value.

@@ -33,30 +33,42 @@ def _as_float_windows(win, name):
     return win.astype(np.float32)
 
 
-def epipolarCorrespondence(im1, im2, F, x1, y1, window=15, sigma=3.5, search=40):
+# The tuned matching parameters (pixels): the window's odd side, the Gaussian weighting's standard
+# deviation, and how far from (x1, y1) along the line candidates are searched.
+_WINDOW = 15
+_SIGMA = 3.5
+_SEARCH = 40
+
+
+def epipolarCorrespondence(im1, im2, F, x1, y1):
     """The pixel of im2 that best matches (x1, y1) of im1, searched along the epipolar line.
 
     Parameters
     ----------
     im1, im2 : (H, W) or (H, W, 3) images of the same shape, uint8 or float in [0, 1].
-    F : (3, 3) fundamental matrix, x2^T F x1 = 0: F @ [x1, y1, 1] is the line to search in im2.
+    F : (3, 3) fundamental matrix in pixels, x2^T F x1 = 0: F @ [x1, y1, 1] is the epipolar line
+        (a, b, c) of the point in im2, the pixels with a x + b y + c = 0.
     x1, y1 : pixel of im1, x = column, y = row.
-    window : odd side of the square window compared (pixels).
-    sigma : standard deviation (pixels) of the Gaussian weighting of the window: the centre
-        counts most, which helps near depth edges.
-    search : candidates are the pixels of the line within ``search`` pixels of (x1, y1) along
-        the line's main direction: the two views differ little, so a true match is close.
 
     Returns
     -------
-    (x2, y2) : floats, the best candidate in pixels of im2 (x = column, y = row).  The score is
-    the Gaussian-weighted sum of squared differences over all colour channels.
+    (x2, y2) : floats, the best candidate in pixels of im2 (x = column, y = row), chosen by
+    comparing a small window around (x1, y1) in im1 with windows around points of the line.
 
     Raises
     ------
     ValueError
         Bad images, a point outside im1, or a line F x1 that does not cross im2 near the point.
+
+    Method (answer key only)
+    ------------------------
+    Candidates: the pixels of the line within _SEARCH pixels of (x1, y1) along the line's main
+    direction (the two views differ little, so a true match is close).  Score: the sum of
+    squared differences over all colour channels of a _WINDOW x _WINDOW window, weighted by a
+    Gaussian of standard deviation _SIGMA so that the centre counts most (which helps near
+    depth edges).  The smallest score wins.
     """
+    window, sigma, search = _WINDOW, _SIGMA, _SEARCH
     _check_pair(im1, im2)
     F = as_matrix(F, "F", (3, 3))
     (x1, y1), = as_points([[x1, y1]], "(x1, y1)")

@@ -11,8 +11,8 @@ from core.validate import DegenerateInputError, as_points, as_positive_scalar, s
 __all__ = ["eightpoint"]
 
 
-def eightpoint(pts1, pts2, M, refine=True):
-    """Fundamental matrix from N >= 8 matches by the (scaled) eight-point algorithm.
+def eightpoint(pts1, pts2, M, *, refine=True):
+    """Fundamental matrix from N >= 8 matches by the eight-point algorithm, with coordinates scaled by 1/M.
 
     Parameters
     ----------
@@ -20,16 +20,16 @@ def eightpoint(pts1, pts2, M, refine=True):
         Matching pixels (x, y) = (column, row) in image 1 and image 2, N >= 8.  Integer arrays
         (the data files are uint16) are cast to float first, so nothing wraps around.
     M : float
-        Scale: the larger of the image's width and height.  The points are divided by M before
-        the linear solve, which keeps the system well conditioned.
-    refine : bool
-        Polish the scaled F with ``refineF`` (symmetric epipolar distance) before unscaling.
+        Scale: the larger of the image's width and height.  As the handout says, every
+        coordinate is divided by M before the linear solve, and F is unscaled afterwards.
 
     Returns
     -------
     F : (3, 3) array
-        Rank 2, unit Frobenius norm, in pixels: x2^T F x1 = 0, so F maps a point of image 1 to
-        its epipolar line in image 2.  F is defined up to scale and sign.
+        Rank 2 (the handout asks for the singularity condition to be enforced before unscaling),
+        in pixels: x2^T F x1 = 0, so F maps a point of image 1 to its epipolar line in image 2.
+        F is defined up to scale and sign.  The handout suggests calling the given
+        ``refineF(F, pts1, pts2)`` from here, before unscaling; it is optional.
 
     Raises
     ------
@@ -37,6 +37,16 @@ def eightpoint(pts1, pts2, M, refine=True):
         For wrong shapes, fewer than 8 points, NaN/inf, or a non-positive M.
     DegenerateInputError
         When the matches do not pin F down (e.g. fewer than 8 distinct or collinear points).
+
+    Method (answer key only)
+    ------------------------
+    One row per match, linear in the nine entries of F; the right singular vector of the
+    smallest singular value, then the closest rank-2 matrix; refineF on the scaled F and
+    points; unscale with T = diag(1/M, 1/M, 1) as T^T F T; unit Frobenius norm.
+
+    refine : keyword only, not the handout's
+        False skips refineF.  Only the kit's own code (tests, the grader's reference variants,
+        ``kit run``) passes it; the students' function has the handout's three arguments.
     """
     p1 = as_points(pts1, "pts1", min_count=8) / as_positive_scalar(M, "M")
     p2 = as_points(pts2, "pts2", min_count=8) / M

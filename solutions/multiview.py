@@ -33,6 +33,8 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
     P : (N, 3) world points; a keypoint seen confidently in fewer than two views is NaN.
     err : total squared reprojection error (pixels^2) over the detections used.
 
+    Method (answer key only)
+    ------------------------
     Each keypoint is first triangulated linearly (DLT) from the two or three views that pass the
     threshold, then refined by least squares on its reprojection error in those views.
     """

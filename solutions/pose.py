@@ -32,9 +32,14 @@ def findM2(F, pts1, pts2, K1, K2):
     C2 : (3, 4) K2 M2.
     w : (N, 3) the points triangulated with C1 = K1 [I | 0] and C2.
 
+    A RuntimeWarning says when even the chosen candidate leaves most points behind a camera
+    (F or the matches are then probably wrong).
+
+    Method (answer key only)
+    ------------------------
     The four candidates reproject equally well (a point behind both cameras projects like the
     one in front), so the choice is by cheirality: the most points with positive depth in both
-    cameras.  A warning says when even the best candidate leaves most points behind a camera.
+    cameras, ties broken by the smaller reprojection error.
     """
     F = as_matrix(F, "F", (3, 3))
     K1 = as_matrix(K1, "K1", (3, 3))

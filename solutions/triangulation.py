@@ -11,7 +11,7 @@ __all__ = ["triangulate"]
 
 
 def triangulate(C1, pts1, C2, pts2):
-    """Triangulate matches from two cameras by the homogeneous least-squares (DLT) method.
+    """One 3D point per match of two cameras, and the total reprojection error.
 
     Parameters
     ----------
@@ -23,10 +23,13 @@ def triangulate(C1, pts1, C2, pts2):
     w : (N, 3) world points, one per match.
     err : float
         Total squared reprojection error in pixels^2: the sum over points and both images of
-        |x - proj(C, w)|^2.
+        |x - proj(C, w)|^2, where proj divides by the third homogeneous coordinate.
 
+    Method (answer key only)
+    ------------------------
     Each point solves A_i w~_i = 0 with the four rows x C[2] - C[0], y C[2] - C[1] of both
-    cameras; w~_i is the right singular vector of A_i with the smallest singular value.
+    cameras (each row scaled to unit norm); w~_i is the right singular vector of A_i with
+    the smallest singular value, divided by its last coordinate.
     """
     C1 = as_matrix(C1, "C1", (3, 4))
     C2 = as_matrix(C2, "C2", (3, 4))
