@@ -123,7 +123,7 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
     items = out.items(n + 2)
     fits, lines, rank_right, rank_lines = 0, [], 0, []
     rank_mistakes, fit_mistakes = [], []
-    float_F = {}
+    float_F, float_fits = {}, {}
     for case, item in zip(p.cases, items[:n]):
         try:
             F = _F(item)
@@ -132,6 +132,7 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
             continue
         float_F[case.label] = F
         v = jf.fit(F, case.eval1, case.eval2, case.goal, case.M)
+        float_fits[case.label] = v.passed
         fits += v.passed
         fit_mistakes += v.mistakes
         lines.append(f"{case.label}: {v.sentence}{'' if v.passed else ': too far'}")
@@ -158,8 +159,10 @@ def judge(p: Prepared, outcomes) -> list[QuestionResult]:
             v = jf.uint16_same(F16, float_F[base_label])
         else:
             v = jf.uint16_same(F16, np.zeros((3, 3)))
-        u16_ok, u16_mistakes = v.passed, list(v.mistakes)
-        u16_lines.append(f"{p.uint16.label}: {v.sentence}")
+        # Like rank 2, this counts only for an F of the scene: a constant answer is the same for any input.
+        u16_ok, u16_mistakes = v.passed and float_fits.get(base_label, False), list(v.mistakes)
+        u16_lines.append(f"{p.uint16.label}: {v.sentence}" + ("" if float_fits.get(base_label) else
+                                                               ", but the F of the float points does not fit"))
     except Malformed as exc:
         u16_lines.append(str(exc))
 
