@@ -135,7 +135,8 @@ def result(M2, w, K1, K2, p1, p2, M2_init, w_init, optimum: float | None) -> Ver
     shape_gap = similarity_align(_scene(M2, w), before)[1] / radius if np.all(np.isfinite(M2)) else np.inf
     kept = shape_gap <= SHAPE_RTOL
     ok = err <= goal and kept
-    fraction = log_score(err, start, goal) if kept else 0.0
+    # No credit without a real decrease: the start in another gauge has the start's error up to rounding.
+    fraction = log_score(err, start, goal) if kept and err < start * (1 - 1e-6) else 0.0
     lines = [] if kept else [f"aligned onto the start by a similarity, your reconstruction is {fmt(shape_gap)} of "
                              f"the scene's size away from it (goal <= {SHAPE_RTOL:g})"]
     found = []
