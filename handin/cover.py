@@ -16,7 +16,7 @@ from core.manifest import QUESTION_HEADING, QUESTIONS, Question
 from .code_zip import NotebookInfo
 
 __all__ = ["TITLE", "ANSWER_PLACEHOLDERS", "NO_NAME", "QuestionStatus", "question_status", "cover_html",
-           "heading_id"]
+           "heading_id", "blank_answers"]
 
 TITLE = "Homework 4: 3D Reconstruction"
 ANSWER_PLACEHOLDERS = ("YOUR ANSWER HERE",)
@@ -42,6 +42,33 @@ def _sections(nb) -> dict[str, list]:
             current = out.setdefault(qid, [])
         if current is not None:
             current.append(cell)
+    return out
+
+
+def _is_blank_answer(cell) -> bool:
+    """A markdown cell that holds only the placeholder (or nothing): a written answer left blank."""
+    if cell.cell_type != "markdown" or cell.get("attachments") or heading_id(cell):
+        return False
+    text = cell.source
+    for p in ANSWER_PLACEHOLDERS:
+        text = re.sub(re.escape(p), "", text, flags=re.IGNORECASE)
+    return not re.sub(r"[\s*_#>-]", "", text)
+
+
+def blank_answers(infos: list[NotebookInfo]) -> list[str]:
+    """The questions (ids, manifest order) with a written answer left blank.
+
+    A written answer is blank when its markdown cell still holds "YOUR ANSWER HERE" and nothing
+    else, or is empty; this covers the written parts of coding questions (Q6's description of
+    the method) as well as the written questions.
+    """
+    by_stem = {i.stem: i for i in infos if i.stem and i.nb is not None}
+    out = []
+    for q in QUESTIONS:
+        info = by_stem.get(q.notebook)
+        cells = _sections(info.nb).get(q.id, []) if info is not None else []
+        if any(_is_blank_answer(c) for c in cells):
+            out.append(q.id)
     return out
 
 
@@ -85,6 +112,7 @@ def question_status(infos: list[NotebookInfo]) -> list[QuestionStatus]:
     written question when its answer cell is no longer the untouched placeholder.
     """
     by_stem = {i.stem: i for i in infos if i.stem and i.nb is not None}
+    blank = set(blank_answers(infos))
     out = []
     for q in QUESTIONS:
         info = by_stem.get(q.notebook)
@@ -98,20 +126,25 @@ def question_status(infos: list[NotebookInfo]) -> list[QuestionStatus]:
             absent = [f for f in missing if f not in info.stubs]
             detail = "; ".join(([f"not defined: {', '.join(absent)}"] if absent else [])
                                + ([f"still a stub: {', '.join(stubs)}"] if stubs else []))
+            if state == "answered" and q.id in blank:
+                state, detail = "partial", "the written answer is blank"
             out.append(QuestionStatus(q, state, detail))
         else:
             cells = _sections(info.nb).get(q.id)
             if cells is None:
                 out.append(QuestionStatus(q, "not answered", f"no '{q.id}' heading in {q.notebook}.ipynb"))
             else:
-                given = _written_answer_given(cells)
+                given = _written_answer_given(cells) and q.id not in blank
                 out.append(QuestionStatus(q, "answered" if given else "not answered",
-                                          "" if given else "answer cell still holds the placeholder"))
+                                          "" if given else "the written answer is blank"))
     return out
 
 
 def cover_html(name: str, statuses: list[QuestionStatus], notebooks: list[Path], today: str) -> str:
     answered = [s.question.id for s in statuses if s.state == "answered"]
+    blank = [s.question.id for s in statuses if s.detail == "the written answer is blank"]
+    flagged = (f'<p class="hw4-blank">Blank written answers: {html.escape(", ".join(blank))} '
+               "(the cell still says YOUR ANSWER HERE, or is empty)</p>") if blank else ""
     rows = "\n".join(
         f'<tr><td>{html.escape(s.question.id)}</td><td>{html.escape(s.question.title)}</td>'
         f'<td>{s.question.points}{" (extra)" if s.question.extra_credit else ""}</td>'
@@ -127,6 +160,7 @@ def cover_html(name: str, statuses: list[QuestionStatus], notebooks: list[Path],
 <div class="hw4-date">Exported {html.escape(today)}</div>
 <p class="hw4-answered">Answered: {html.escape(", ".join(answered) or "none")}
 ({len(answered)} of {len(statuses)})</p>
+{flagged}
 <table>
 <thead><tr><th>Question</th><th>Title</th><th>Points</th><th>Status</th></tr></thead>
 <tbody>

@@ -6,7 +6,8 @@ and the preprocessors that make every output printable.
   interactive output with no static image becomes a short note instead of raw text;
 - long text outputs keep their first and last lines; very wide images are scaled down; images a
   markdown cell links from its folder are inlined;
-- every question heading and every notebook starts a new page, after the cover.
+- every question heading and every notebook starts a new page, after the cover;
+- the setup cell (the kit's own code, the same in every notebook) prints as one line.
 """
 
 from __future__ import annotations
@@ -29,7 +30,8 @@ from .cover import NO_NAME, TITLE, cover_html, heading_id, question_status
 from .mathjax import ensure_mathjax
 
 __all__ = ["StaticOutputsPreprocessor", "TruncateOutputsPreprocessor", "ScaleImagesPreprocessor",
-           "LocalImagesPreprocessor", "PREPROCESSORS", "notebooks_to_html"]
+           "LocalImagesPreprocessor", "SetupCellPreprocessor", "PREPROCESSORS", "SETUP_FIRST_LINE",
+           "notebooks_to_html"]
 
 ASSETS = Path(__file__).resolve().with_name("pdf_assets")
 IMAGE_TYPES = ("image/png", "image/svg+xml", "image/jpeg")
@@ -188,10 +190,29 @@ class LocalImagesPreprocessor(Preprocessor):
         return cell, resources
 
 
+# The first line of the homework notebooks' setup cell (kit.notebooks writes it; handin may not
+# import kit): a code cell that starts with it is the kit's own code, not the student's work.
+SETUP_FIRST_LINE = "# Setup: run this cell first."
+
+
+class SetupCellPreprocessor(Preprocessor):
+    """Print the setup cell as one line: its code is the kit's, the same in every notebook.
+
+    Its outputs (where the kit was found) are kept; a student who wrote in the cell (their name,
+    say) loses nothing from the PDF that matters, as the cover shows the name.
+    """
+
+    def preprocess_cell(self, cell, resources, index):
+        if cell.cell_type == "code" and cell.source.lstrip().startswith(SETUP_FIRST_LINE):
+            lines = len(cell.source.splitlines())
+            cell.source = f"# Setup cell of the homework kit ({lines} lines, not printed)"
+        return cell, resources
+
+
 # Order matters: streams are merged before they are cut; a representation is chosen before
 # images are scaled (so only the kept image is decoded); links are fixed before rendering.
 PREPROCESSORS = (CoalesceStreamsPreprocessor, StaticOutputsPreprocessor, TruncateOutputsPreprocessor,
-                 ScaleImagesPreprocessor, LocalImagesPreprocessor)
+                 ScaleImagesPreprocessor, LocalImagesPreprocessor, SetupCellPreprocessor)
 
 
 # ----------------------------------------------------------------------------- questions, cover

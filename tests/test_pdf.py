@@ -366,3 +366,102 @@ def test_find_mathjax_honours_the_environment(tmp_path, monkeypatch):
     (tmp_path / "config" / "TeX-AMS-MML_HTMLorMML-full.js").write_text("")
     monkeypatch.setenv("HW4_MATHJAX", str(tmp_path / "MathJax.js"))
     assert mathjax.find_mathjax() == tmp_path
+
+
+# ------------------------------------------------------------- setup cell, wrapping, blank answers
+
+SETUP_SOURCE = pdf_html.SETUP_FIRST_LINE + "  It finds the kit.\n" + "".join(
+    f"setup_statement_{i:02d} = {i}  # kit plumbing\n" for i in range(40))
+REPORT_LINE = ("  ok   the epipolar lines pass within 0.04 px of the matches on the generated scene, "
+               "and the uint16 points give the same F as float points do, as they must")
+
+
+def test_setup_cell_is_one_line_and_keeps_its_output():
+    cell = new_code_cell(SETUP_SOURCE, outputs=[new_output("stream", name="stdout", text="homework kit: /x\n")])
+    other = new_code_cell("x = 1  # Setup: not the first line, so it is the student's")
+    pre = pdf_html.SetupCellPreprocessor()
+    out, _ = pre.preprocess_cell(cell, {}, 0)
+    assert len(out.source.splitlines()) == 1 and "41 lines" in out.source
+    assert out.outputs[0].text == "homework kit: /x\n"
+    assert pre.preprocess_cell(other, {}, 1)[0].source == other.source
+
+
+def test_css_wraps_at_spaces_not_inside_words():
+    css = (pdf_html.ASSETS / "hw4.css").read_text()
+    assert "overflow-wrap: anywhere" not in css and "word-break: break-all" not in css
+    assert "overflow-wrap: break-word" in css
+
+
+def _written(tmp_path, q1_answers, q6_answer):
+    cells = [new_markdown_cell("## Q1.1 Fixating cameras"), new_markdown_cell(q1_answers[0]),
+             new_markdown_cell("## Q1.2 Relative pose"), new_markdown_cell(q1_answers[1])]
+    nbformat.write(new_notebook(cells=cells), tmp_path / "q1_proofs.ipynb")
+    q6 = new_notebook(cells=[
+        new_markdown_cell("## Q6 Three-view keypoints"),
+        new_code_cell("def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):\n    return C1, 0.0\n\n"
+                      "def plot_3d_keypoint_video(pts_3d_video):\n    return None"),
+        new_markdown_cell(q6_answer)])
+    nbformat.write(q6, tmp_path / "q6_multiview_car.ipynb")
+    infos = [inspect_notebook(tmp_path / f) for f in ("q1_proofs.ipynb", "q6_multiview_car.ipynb")]
+    return infos, {s.question.id: s for s in cover.question_status(infos)}
+
+
+def test_blank_written_answers_are_flagged_placeholder_or_empty(tmp_path):
+    infos, st = _written(tmp_path, ["YOUR ANSWER HERE", "   \n"], "YOUR ANSWER HERE")
+    assert cover.blank_answers(infos) == ["Q1.1", "Q1.2", "Q6"]
+    assert st["Q1.1"].state == st["Q1.2"].state == "not answered"
+    assert st["Q6"].state == "partial" and "blank" in st["Q6"].detail  # the code is there, the text is not
+    page = cover.cover_html("A", list(st.values()), [], "today")
+    assert re.search(r"Blank written answers: Q1\.1, Q1\.2, Q6", page)
+
+    infos, st = _written(tmp_path, ["$f_{33} = 0$ because ...", "R_rel = R2 R1^T"], "Two or three views, then DLT.")
+    assert cover.blank_answers(infos) == []
+    assert st["Q1.1"].state == st["Q1.2"].state == st["Q6"].state == "answered"
+    assert "Blank written answers" not in cover.cover_html("A", list(st.values()), [], "today")
+
+
+@pytest.fixture(scope="module")
+def printed_setup_and_report(tmp_path_factory):
+    """A q1 notebook with a long setup cell, a check report longer than a line and a blank answer."""
+    _poppler_or_skip()
+    _browser_or_skip()
+    _mathjax_or_skip()
+    folder = tmp_path_factory.mktemp("setup")
+    nb = new_notebook(cells=[
+        new_code_cell(SETUP_SOURCE, outputs=[new_output("stream", name="stdout", text="homework kit: /kit\n")]),
+        new_markdown_cell("## Q1.1 Fixating cameras"), new_markdown_cell("YOUR ANSWER HERE"),
+        new_code_cell("report = check()", outputs=[new_output("stream", name="stdout",
+                                                              text=(REPORT_LINE + "\n") * 3)]),
+        new_markdown_cell("## Q1.2 Relative pose"), new_markdown_cell("$R_{rel} = R_2 R_1^T$"),
+    ])
+    nbformat.write(nb, folder / "q1_proofs.ipynb")
+    out = pdf.build_pdf(folder, tmp_path_factory.mktemp("pdf") / "hw4.pdf")
+    return pages_of(out)
+
+
+def test_printed_setup_cell_takes_one_line(printed_setup_and_report):
+    text = "\n".join(printed_setup_and_report)
+    assert "setup_statement_" not in text
+    assert sum("Setup cell of the homework kit" in line for line in text.splitlines()) == 1
+
+
+def words_split_across_lines(text: str, expected: str) -> list[str]:
+    """Pairs of consecutive lines of ``text`` whose join cuts one word of ``expected`` in two."""
+    words = set(re.findall(r"[A-Za-z0-9.]+", expected))
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    bad = []
+    for a, b in zip(lines, lines[1:]):
+        left, right = re.findall(r"[A-Za-z0-9.]+$", a), re.findall(r"^[A-Za-z0-9.]+", b)
+        if left and right and left[0] + right[0] in words and left[0] not in words:
+            bad.append(f"{a!r} / {b!r}")
+    return bad
+
+
+def test_printed_report_lines_wrap_at_spaces(printed_setup_and_report):
+    text = "\n".join(printed_setup_and_report)
+    assert "generated scene" in text.replace("\n", " ")
+    assert words_split_across_lines(text, REPORT_LINE) == []
+
+
+def test_printed_cover_flags_the_blank_answer(printed_setup_and_report):
+    assert re.search(r"Blank written answers: Q1\.1\b", printed_setup_and_report[0])

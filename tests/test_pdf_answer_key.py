@@ -84,3 +84,43 @@ def test_the_hand_in_notebook_makes_the_pdf_and_the_zip(tmp_path):
         assert sorted(n.split("/")[-1] for n in z.namelist()) == sorted(f"{s}.ipynb" for s in NOTEBOOKS)
     # The untouched notebooks are reported as such on the cover, not as answered.
     assert "Answered: none" in pages_of(tmp_path / "hw4.pdf")[0] or "(0 of" in pages_of(tmp_path / "hw4.pdf")[0]
+
+
+def test_no_setup_cell_pages_one_line_per_notebook(printed_key):
+    _, pages, _ = printed_key
+    text = "\n".join(pages)
+    # Lines of the setup cell's code never reach the PDF; its one-line stand-in does, once a notebook.
+    for code in ("importlib.metadata", "subprocess.run(", "sys.path.insert", "KIT_REPO ="):
+        assert code not in text, code
+    assert sum("Setup cell of the homework kit" in line for line in text.splitlines()) == len(NOTEBOOKS)
+
+
+def test_check_reports_wrap_at_spaces(printed_key):
+    """No line of a check report ends inside a word: the words printed whole inside lines of the
+    PDF are the vocabulary, and a line end joined to the next line's start must not form one of
+    them out of two pieces that are not words themselves."""
+    _, pages, _ = printed_key
+    lines = [line.strip() for page in pages for line in page.splitlines() if line.strip()]
+    token = r"[A-Za-z][A-Za-z0-9_]*"
+    vocabulary = {t for line in lines for t in re.findall(token, line)[1:-1]}
+    reports, inside = [], False
+    for line in lines:
+        if re.match(r"check \w+: \d+/\d+ passed", line):
+            inside = True
+        elif inside and not re.match(r"[✓✗!•(a-z0-9]", line):
+            inside = False
+        if inside:
+            reports.append(line)
+    assert len(reports) > 20, "the check reports of the answer key were not found in its PDF"
+    cut = []
+    for a, b in zip(reports, reports[1:]):
+        left, right = re.findall(token + "$", a), re.findall("^" + token, b)
+        if left and right and left[0] + right[0] in vocabulary \
+                and not (left[0] in vocabulary and right[0] in vocabulary):
+            cut.append(f"{a!r} / {b!r}")
+    assert cut == []
+
+
+def test_the_answer_keys_cover_flags_no_blank_answer(printed_key):
+    _, pages, _ = printed_key
+    assert "Blank written answers" not in pages[0]
