@@ -1,9 +1,12 @@
 """The hand-in notebook: one PDF and one code zip from a student's notebooks, in Colab or locally.
 
-Each Colab notebook runs on its own machine, so no single notebook can see the others there; the
-hand-in notebook asks for the saved .ipynb files (File > Download in each), then does what
-``python -m handin pdf`` does.  Locally it takes the notebooks beside it.  ``python -m kit
-notebooks`` writes it as notebooks/hand_in.ipynb.
+Its first code cell is the homework notebooks' own setup cell (``kit.notebooks`` passes it in):
+on Colab it mounts Google Drive and makes the kit there importable, and the student's notebooks
+are found where the homework notebooks find each other (``starter.notebook_import``: the course
+folder MyDrive/hw4 and MyDrive/Colab Notebooks, whatever Colab named them), so nothing is
+uploaded.  Locally it takes the notebooks beside it.  The PDF and the zip are written to the
+course folder (Drive on Colab) and, on Colab, downloaded too.  ``python -m kit notebooks``
+writes it as notebooks/hand_in.ipynb.
 """
 
 from __future__ import annotations
@@ -22,42 +25,23 @@ each question starts on a new page, so that matching pages to questions on Grade
 click per question. Every figure is printed as an image, long code lines wrap, and math is
 rendered without internet. The zip holds your notebooks, which the autograder runs.
 
-- **Colab:** in each of your notebooks, save and then *File > Download > Download .ipynb*;
-  upload those files when the second cell asks. Two files come back to download: `hw4.pdf`
-  and `hw4_code.zip`.
+- **Colab:** save your notebooks first (Colab keeps them in Google Drive: MyDrive/hw4 or
+  MyDrive/Colab Notebooks, "Copy of ..." names are fine). The first cell mounts Drive as in
+  your notebooks; the list below shows which file is used for each problem (the most recently
+  saved). `hw4.pdf` and `hw4_code.zip` are written to MyDrive/hw4 and downloaded.
 - **Your own machine:** keep this notebook in the folder of your notebooks; the files are
   written beside them."""
 
-_COLAB_SETUP = """\
-# Colab only: fetch the kit (for its PDF tools) the first time.  Locally this cell does nothing.
-import subprocess
-import sys
-from pathlib import Path
+_FIND = """\
+from starter.notebook_import import NOTEBOOKS_ENV, homework_notebooks
 
-KIT_REPO = "{repo}"
-IN_COLAB = "google.colab" in sys.modules
-if IN_COLAB and not Path("hw4-kit").is_dir():
-    subprocess.run(["git", "clone", "--quiet", "--depth", "1", KIT_REPO, "hw4-kit"], check=True)
-    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "nbconvert", "jupyter-server-mathjax"],
-                   check=True)"""
-
-_SETUP = """\
 STUDENT_NAME = ""  # your name for the cover; left empty, the STUDENT_NAME of your notebooks is used
-kit = Path("hw4-kit").resolve() if IN_COLAB else next(
-    (p for p in [Path.cwd(), *Path.cwd().parents] if (p / "handin" / "pdf.py").is_file()), None)
-if kit is not None and str(kit) not in sys.path:
-    sys.path.insert(0, str(kit))
-folder = Path.cwd()
-print("notebooks folder:", folder)"""
-
-_UPLOAD = """\
-if IN_COLAB:
-    from google.colab import files
-    folder = Path("/content/hand_in")
-    folder.mkdir(exist_ok=True)
-    for name, data in files.upload().items():  # choose your q1 ... q6 .ipynb files
-        (folder / Path(name).name).write_bytes(data)
-print(sorted(p.name for p in folder.glob("*.ipynb")))"""
+IN_COLAB = "google.colab" in sys.modules
+notebooks = homework_notebooks()
+for stem, path in notebooks.items():
+    print(f"{stem}: {path}")
+out_dir = Path(os.environ[NOTEBOOKS_ENV].split(os.pathsep)[0]) if NOTEBOOKS_ENV in os.environ else Path.cwd()
+print("the PDF and the zip go to:", out_dir)"""
 
 _BUILD = """\
 from handin.browser import ensure_browser
@@ -65,22 +49,23 @@ from handin.code_zip import build_code_zip
 from handin.pdf import build_pdf
 
 ensure_browser()  # finds Chromium; in Colab it installs one the first time (a minute or two)
-pdf = build_pdf(folder, folder / "hw4.pdf", name=STUDENT_NAME or None)
-report = build_code_zip(folder, folder / "hw4_code.zip")
+pdf = build_pdf(list(notebooks.values()), out_dir / "hw4.pdf", name=STUDENT_NAME or None)
+report = build_code_zip(list(notebooks.values()), out_dir / "hw4_code.zip")
 print("PDF:", pdf)
 print(report)
 if IN_COLAB:
+    from google.colab import files
+
     files.download(str(pdf))
-    files.download(str(folder / "hw4_code.zip"))"""
+    files.download(str(out_dir / "hw4_code.zip"))"""
 
 
-def hand_in_notebook(repo_url: str) -> nbformat.NotebookNode:
-    """The hand-in notebook for the kit published at ``repo_url``."""
+def hand_in_notebook(setup_code: str) -> nbformat.NotebookNode:
+    """The hand-in notebook whose first code cell is ``setup_code``, the homework notebooks' setup cell."""
     cells = [
         nbformat.v4.new_markdown_cell(_INTRO),
-        nbformat.v4.new_code_cell(_COLAB_SETUP.format(repo=repo_url)),
-        nbformat.v4.new_code_cell(_SETUP),
-        nbformat.v4.new_code_cell(_UPLOAD),
+        nbformat.v4.new_code_cell(setup_code),
+        nbformat.v4.new_code_cell(_FIND),
         nbformat.v4.new_code_cell(_BUILD),
     ]
     nb = nbformat.v4.new_notebook(cells=cells)

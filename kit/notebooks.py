@@ -98,6 +98,7 @@ BEGIN, END = "### BEGIN SOLUTION", "### END SOLUTION"
 _BARE_HEADING = re.compile(r"^(#{1,3})\s*(Q\d+(?:\.\d+)?)\s*$")
 _FENCE = re.compile(r"^```(python|\{(\w+)\})[ \t]*(.*)$")
 _GITHUB = re.compile(r"^https://github\.com/([A-Za-z0-9_.-]+)/([A-Za-z0-9_.-]+?)(?:\.git)?/?$")
+_LOCAL_GIT = re.compile(r"^file:///[^\s\"'\\]+$")
 
 
 class SourceError(ValueError):
@@ -112,16 +113,21 @@ class Settings:
     """Where the published student kit lives.
 
     repo_url: the GitHub repository of the student release (``python -m kit release``), e.g.
-    ``https://github.com/cmu-16720/hw4``; ref: the branch or tag to open and to clone.
+    ``https://github.com/cmu-16720/hw4``, or a local git repository ``file:///path`` (tests, a
+    course server): the setup cell clones it, but Colab cannot open notebooks from it, so the
+    notebooks then carry no "Open in Colab" link.  ref: the branch or tag to open and to clone.
+    The placeholder (:data:`PLACEHOLDER_REPO`) is accepted only for the kit's own committed build;
+    anything given to students refuses it (:meth:`require_repository`).
     """
 
     repo_url: str = PLACEHOLDER_REPO
     ref: str = "main"
 
     def __post_init__(self):
-        if not _GITHUB.match(self.repo_url):
+        if not (_GITHUB.match(self.repo_url) or _LOCAL_GIT.match(self.repo_url)):
             raise ValueError(f"repo_url: expected a GitHub repository URL like https://github.com/ORG/REPO "
-                             f"(Colab opens notebooks from GitHub), got {self.repo_url!r}")
+                             f"(Colab opens notebooks from GitHub) or a local git repository file:///PATH, "
+                             f"got {self.repo_url!r}")
         if not re.fullmatch(r"[A-Za-z0-9_./-]+", self.ref) or self.ref.startswith("-"):
             raise ValueError(f"ref: expected a branch or tag name, got {self.ref!r}")
 
@@ -129,8 +135,22 @@ class Settings:
     def is_placeholder(self) -> bool:
         return self.repo_url == PLACEHOLDER_REPO
 
-    def colab_url(self, stem: str) -> str:
-        owner, repo = _GITHUB.match(self.repo_url).groups()
+    def require_repository(self, what: str) -> "Settings":
+        """These settings, or a ValueError saying how to name the repository when they hold the placeholder."""
+        if self.is_placeholder:
+            raise ValueError(
+                f"repo_url: {what} needs the repository students get the kit from, got the placeholder "
+                f"{PLACEHOLDER_REPO}. Pass --repo-url https://github.com/ORG/REPO (the public GitHub "
+                f"repository you push the release to; --ref BRANCH if not main), or set repo_url in "
+                f"notebooks/src/settings.json. The notebooks' Colab links and setup cells point there.")
+        return self
+
+    def colab_url(self, stem: str) -> str | None:
+        """The "Open in Colab" address of a student notebook; None for a repository Colab cannot open."""
+        m = _GITHUB.match(self.repo_url)
+        if m is None:
+            return None
+        owner, repo = m.groups()
         return f"https://colab.research.google.com/github/{owner}/{repo}/blob/{self.ref}/notebooks/{stem}.ipynb"
 
 
@@ -493,13 +513,17 @@ def _check_text(name: str, module: str, variant: str) -> str:
 
 
 def _setup_text(settings: Settings) -> str:
-    return f'''\
-# Setup: run this cell first.  It makes the homework kit (starter/, scenes/, data/) importable:
-# on your own machine it only finds the kit around this notebook; on Colab it downloads the kit
-# once and installs the packages of its requirements.txt that Colab does not have.
+    return f"""\
+# Setup: run this cell first.  It makes the homework kit (starter/, scenes/, data/) importable.
+# On your own machine it finds the kit around this notebook.  On Colab it mounts your Google Drive,
+# downloads the kit once into your course folder there (MyDrive/hw4/kit) and installs what Colab
+# lacks; your notebooks are looked for in MyDrive/hw4 and MyDrive/Colab Notebooks, whatever Colab
+# named them ("Copy of ..."), so later notebooks find your earlier functions in any new session.
 import importlib.metadata
 import importlib.util
+import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -507,36 +531,63 @@ from pathlib import Path
 STUDENT_NAME = "your name"  # <- your name, printed on the cover of your PDF
 KIT_REPO = "{settings.repo_url}"
 KIT_REF = "{settings.ref}"
+COURSE_FOLDER = "hw4"  # Colab: your course folder in Google Drive (MyDrive/hw4)
+USE_DRIVE = True  # Colab without Google Drive: False (then nothing is kept when the session ends)
 
 kit_dir = next((p for p in [Path.cwd(), *Path.cwd().parents] if (p / "starter" / "__init__.py").is_file()), None)
 if kit_dir is None and "google.colab" in sys.modules:
-    kit_dir = Path("/content/hw4-kit")
-    if not (kit_dir / "starter").is_dir():
-        subprocess.run(["git", "clone", "--quiet", "--depth", "1", "--branch", KIT_REF, KIT_REPO, str(kit_dir)],
+    from google.colab import output
+    content = Path(os.environ.get("HW4_COLAB_ROOT", "/content"))  # Colab's working folder
+    if USE_DRIVE:
+        from google.colab import drive
+        drive.mount(str(content / "drive"))
+        course = content / "drive" / "MyDrive" / COURSE_FOLDER
+        folders = [course, course.parent / "Colab Notebooks"]
+    else:
+        course = content / COURSE_FOLDER
+        folders = [content, course]
+    os.environ["HW4_NOTEBOOKS"] = os.pathsep.join(map(str, folders))  # read by from_notebook and the hand-in
+    kit_dir = course / "kit"
+    if not (kit_dir / "starter" / "__init__.py").is_file():
+        download = course / "kit-download"
+        shutil.rmtree(download, ignore_errors=True)
+        course.mkdir(parents=True, exist_ok=True)
+        subprocess.run(["git", "clone", "--quiet", "--depth", "1", "--branch", KIT_REF, KIT_REPO, str(download)],
                        check=True)
+        download.rename(kit_dir)
     missing = []
     for line in (kit_dir / "requirements.txt").read_text().splitlines():
         requirement = line.split("#")[0].strip()
-        if requirement and not requirement.startswith("-"):
+        name = re.split(r"[<>=!~\\[; ]", requirement)[0]
+        if name and not requirement.startswith("-") and name != "anywidget":  # anywidget: optional (clicks)
             try:
-                importlib.metadata.version(re.split(r"[<>=!~\\[; ]", requirement)[0])
+                importlib.metadata.version(name)
             except importlib.metadata.PackageNotFoundError:
                 missing.append(requirement)
     if missing:
         subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", *missing], check=True)
-if kit_dir is not None and str(kit_dir) not in sys.path:
-    sys.path.insert(0, str(kit_dir))
-if importlib.util.find_spec("starter") is None:
+    output.enable_custom_widget_manager()  # the point-picking widgets
+    print("your notebooks are read from:", ", ".join(map(str, folders)))
+if kit_dir is None and importlib.util.find_spec("starter") is not None:
+    kit_dir = Path(importlib.util.find_spec("starter").origin).parents[1]  # an installed kit
+if kit_dir is None:
     raise RuntimeError("The homework kit was not found: open this notebook from the kit's notebooks/ folder, "
                        "install the kit (pip install -e .), or run it on Colab.")
-print("homework kit:", kit_dir or Path(importlib.util.find_spec("starter").origin).parents[1])'''
+if str(kit_dir) not in sys.path:
+    sys.path.insert(0, str(kit_dir))
+print("homework kit:", kit_dir)"""
 
 
 def _colab_text(stem: str, settings: Settings) -> str:
-    text = f"[Open this notebook in Colab]({settings.colab_url(stem)})"
+    url = settings.colab_url(stem)
+    if url is None:
+        return (f"*Colab: this kit comes from {settings.repo_url}, which Colab cannot open; upload the "
+                "notebook (File > Upload notebook) or run it in Jupyter.*")
+    text = (f"[Open this notebook in Colab]({url}), then *File > Save a copy in Drive*: the setup cell "
+            "mounts your Google Drive, where later notebooks and the hand-in find this one.")
     if settings.is_placeholder:
         text += ("  \n*(Placeholder link: the instructor sets the course repository with "
-                 "`python -m kit notebooks --repo-url https://github.com/ORG/REPO`.)*")
+                 "`python -m kit release --repo-url https://github.com/ORG/REPO`.)*")
     return text
 
 
@@ -791,7 +842,7 @@ def build_all(settings: Settings | None = None, *, root: Path | None = None, src
     built = {output_path(stem, variant, root): build_notebook(stem, variant, settings, src_dir=src_dir,
                                                                solutions_dir=solutions_dir)
              for variant in VARIANTS for stem in NOTEBOOKS}
-    hand_in = hand_in_notebook((settings or load_settings()).repo_url)
+    hand_in = hand_in_notebook(_setup_text(settings or load_settings()))
     for i, cell in enumerate(hand_in.cells):
         cell["id"] = f"hand-in-{i}"  # fixed, so that a rebuild is identical
     built[output_path(NOTEBOOKS[0], "student", root).parent / HAND_IN_NAME] = hand_in
@@ -832,19 +883,23 @@ def main(args) -> int:
         if not stale:
             print("every notebook matches its source")
         return 1 if stale else 0
+    if root is not None:
+        # A build outside the kit is made to be handed out: it must name the real repository.
+        settings.require_repository("python -m kit notebooks --out")
     for p in write_all(settings, root=root):
         print(f"wrote {p}")
     if settings.is_placeholder:
-        print("note: the Colab links and the kit download use a placeholder repository; "
-              "pass --repo-url (or set notebooks/src/settings.json)")
+        print("note: the kit's own notebooks keep the placeholder repository; students get notebooks from "
+              "python -m kit release --repo-url https://github.com/ORG/REPO, which rebuilds them with it")
     return 0
 
 
 def add_arguments(p) -> None:
     """The arguments of ``python -m kit notebooks``."""
     p.add_argument("--repo-url", default=None,
-                   help="GitHub repository of the student release, for the Colab links and the kit download "
-                        "(default: notebooks/src/settings.json)")
+                   help="GitHub repository of the student release (https://github.com/ORG/REPO, or a local "
+                        "file:///PATH), for the Colab links and the kit download (default: "
+                        "notebooks/src/settings.json; its placeholder is refused with --out)")
     p.add_argument("--ref", default=None, help="branch or tag of that repository (default: settings.json, main)")
     p.add_argument("--out", default=None, help="write under this folder instead of the kit (notebooks/... inside)")
     p.add_argument("--check", action="store_true",

@@ -5,7 +5,9 @@
     core/ scenes/ starter/ judging/    the packages of ``core.shipping.STUDENT_PACKAGES`` (and judging/),
     handin/                            whole: helpers, public checks, scene generator, hand-in commands
     data/                              the data, without data/official/
-    notebooks/<stem>.ipynb             the student notebooks, as committed (checked against a build)
+    notebooks/<stem>.ipynb             the student notebooks and hand_in.ipynb, built for the release's
+                                       repository (--repo-url; the committed ones are checked against
+                                       their source first; the placeholder repository is refused)
     requirements.txt  pyproject.toml   so that ``pip install -r requirements.txt`` or ``pip install -e .`` works
     README.md                          a short guide for students
 
@@ -73,10 +75,11 @@ def _readme(settings) -> str:
     order = "\n".join(f"{k}. `notebooks/{stem}.ipynb`: " + "; ".join(
         f"{q.id} {q.title} ({q.points} points{', extra credit' if q.extra_credit else ''})"
         for q in QUESTIONS if q.notebook == stem) for k, stem in enumerate(NOTEBOOKS, start=1))
-    colab = ("" if settings.is_placeholder else
-             f"\nOn Colab: open a notebook from {settings.repo_url} (each notebook has an \"Open in Colab\" "
-             "link); its first cell downloads this kit. Later notebooks load your functions from earlier "
-             "ones, so upload your finished earlier notebooks to the Colab session (Files panel).\n")
+    first = settings.colab_url(NOTEBOOKS[0])
+    open_first = (f"Open the first notebook in Colab: {first} (every notebook has its \"Open in Colab\" "
+                  "link at the top)" if first else
+                  f"Upload a notebook to Colab (File > Upload notebook); its setup cell fetches the kit from "
+                  f"{settings.repo_url}")
     return f"""\
 # Homework 4: two-view 3D reconstruction
 
@@ -84,17 +87,36 @@ One notebook per problem, to do in order (later notebooks reuse your functions f
 
 {order}
 
-## Setting up
+## On Google Colab (your work kept in Google Drive)
 
-On your own machine (Python 3.10 or later):
+1. {open_first}.
+2. Before typing anything, *File > Save a copy in Drive*. Colab keeps the copy in
+   MyDrive/Colab Notebooks as "Copy of {NOTEBOOKS[0]}.ipynb": keep or change the name, the kit
+   recognises its notebooks by their content. (Keeping them in MyDrive/hw4 works too.)
+3. Write your name in `STUDENT_NAME` and run the setup cell (the first code cell). It mounts your
+   Google Drive (allow access), downloads this kit once into MyDrive/hw4/kit and installs what
+   Colab lacks. Run it first in every new session; later sessions find everything in Drive.
+4. Do the same for each notebook, in order. Later notebooks load your functions from your saved
+   earlier notebooks in Drive (a line says which file), so nothing is uploaded, in any session.
+5. To hand in, open `notebooks/hand_in.ipynb` the same way and run it: it finds your notebooks
+   in Drive (the most recently saved one per problem) and writes `hw4.pdf` and `hw4_code.zip` to
+   MyDrive/hw4, and downloads them.
+
+Colab without Drive: set `USE_DRIVE = False` in the setup cell. Nothing is kept when the session
+ends, so upload your earlier notebooks (Files panel, into /content) before running a later one.
+
+## On your own machine, or any Jupyter (no Google account needed)
+
+Download this repository as a zip (on GitHub: Code > Download ZIP), unzip it, and in the
+unzipped folder (Python 3.10 or later; a virtual environment is a good idea):
 
 ```
-pip install -e .            # or: pip install -r requirements.txt
+pip install -r requirements.txt jupyterlab
 jupyter lab notebooks/
 ```
-{colab}
-Run each notebook's first cell before anything else. Keep the six notebooks together in
-`notebooks/`.
+
+Open the notebooks from `notebooks/` and keep the six together there: each setup cell finds the
+kit around its notebook, and later notebooks load your functions from their neighbours.
 
 ## What is here
 
@@ -109,7 +131,8 @@ The self-checks are a help, not the grade: passing them promises nothing about t
 
 ## Handing in
 
-Write your name in `STUDENT_NAME` in the first cell, run every notebook top to bottom, save, then
+Write your name in `STUDENT_NAME` in the first cell, run every notebook top to bottom and save.
+On Colab run `notebooks/hand_in.ipynb` (above). On your own machine run it too, or:
 
 ```
 python -m handin pdf notebooks/ --out hw4.pdf --code-zip hw4_code.zip
@@ -196,11 +219,13 @@ def leaks(folder, solutions_dir: Path | None = None) -> list[str]:
     return problems
 
 
-def _student_notebooks(notebooks_dir: Path) -> list[Path]:
-    """The committed student notebooks, each checked against a fresh build with its own settings."""
-    from kit.notebooks import build_notebook, settings_of
+def _student_notebooks(notebooks_dir: Path, settings) -> dict[str, str]:
+    """File name -> text of the release's notebooks: the student notebooks and the hand-in notebook,
+    built for ``settings``.  Each committed student notebook is first checked against a fresh build
+    with its own settings, so that a release never ships notebooks older than their source."""
+    from handin.hand_in_notebook import HAND_IN_NAME
+    from kit.notebooks import build_all, build_notebook, output_path, settings_of
 
-    paths = []
     for stem in NOTEBOOKS:
         path = notebooks_dir / f"{stem}.ipynb"
         if not path.exists():
@@ -212,13 +237,10 @@ def _student_notebooks(notebooks_dir: Path) -> list[Path]:
         fresh = build_notebook(stem, "student", settings_of(nb))
         if nbformat.writes(fresh) != nbformat.writes(nb):
             raise ValueError(f"{path} differs from its source: rebuild it (python -m kit notebooks)")
-        paths.append(path)
-    from handin.hand_in_notebook import HAND_IN_NAME
-
-    hand_in = notebooks_dir / HAND_IN_NAME
-    if hand_in.exists():
-        paths.append(hand_in)
-    return paths
+    built = build_all(settings, root=Path("/release"))
+    wanted = {output_path(stem, "student", Path("/release")) for stem in NOTEBOOKS}
+    wanted.add(output_path(NOTEBOOKS[0], "student", Path("/release")).parent / HAND_IN_NAME)
+    return {p.name: nbformat.writes(nb) + "\n" for p, nb in built.items() if p in wanted}
 
 
 def _version() -> str:
@@ -229,7 +251,7 @@ def _version() -> str:
     return m.group(1) if m else "0.0.0"
 
 
-def write_release(out, *, data=None, force: bool = False) -> list[Path]:
+def write_release(out, *, data=None, force: bool = False, settings=None) -> list[Path]:
     """Write the student release into ``out``; return the files written.
 
     Parameters
@@ -241,18 +263,23 @@ def write_release(out, *, data=None, force: bool = False) -> list[Path]:
     force : bool
         Replace the release's own top-level entries (:data:`RELEASE_TOP`) in a non-empty ``out``;
         other files there are left alone.
+    settings : kit.notebooks.Settings, optional
+        The repository students get the kit from (default: notebooks/src/settings.json); the
+        notebooks' Colab links, setup cells and the README point there.  The placeholder is refused.
 
     Raises
     ------
     ValueError
-        When ``out`` is inside the kit (or holds it), is not empty without ``force``, when a
-        committed student notebook is out of date, or when the written files leak an answer
-        (the message lists them; the release is then removed).
+        When the repository is the placeholder (the message says what to pass), ``out`` is
+        inside the kit (or holds it), is not empty without ``force``, when a committed student
+        notebook is out of date, or when the written files leak an answer (the message lists
+        them; the release is then removed).
     FileNotFoundError
         When the data folder or a student notebook is missing.
     """
     from kit.notebooks import load_settings
 
+    settings = (settings if settings is not None else load_settings()).require_repository("python -m kit release")
     out = Path(out).resolve()
     kit = KIT_ROOT.resolve()
     if out == kit or kit in out.parents or out in kit.parents:
@@ -273,7 +300,7 @@ def write_release(out, *, data=None, force: bool = False) -> list[Path]:
     if not (data / "temple").is_dir():
         raise FileNotFoundError(f"data: expected the homework data in {data} (temple/, q6/); "
                                 "write it with python -m kit data")
-    notebooks = _student_notebooks(kit / "notebooks")
+    notebooks = _student_notebooks(kit / "notebooks", settings)
 
     out.mkdir(parents=True, exist_ok=True)
     packages = release_packages(kit)
@@ -281,13 +308,13 @@ def write_release(out, *, data=None, force: bool = False) -> list[Path]:
         _copy_tree(kit / name, out / name)
     _copy_tree(data, out / "data", exclude_top=set(DATA_EXCLUDE))
     (out / "notebooks").mkdir()
-    for path in notebooks:
-        shutil.copy2(path, out / "notebooks" / path.name)
+    for name, text in notebooks.items():
+        (out / "notebooks" / name).write_text(text, encoding="utf-8")
     shutil.copy2(kit / "requirements.txt", out / "requirements.txt")
     include = ", ".join(f'"{".".join(d.relative_to(out).parts)}"' for name in packages
                         for d in sorted([out / name, *(out / name).rglob("*")]) if (d / "__init__.py").is_file())
     (out / "pyproject.toml").write_text(_PYPROJECT.format(version=_version(), packages=include), encoding="utf-8")
-    (out / "README.md").write_text(_readme(load_settings()), encoding="utf-8")
+    (out / "README.md").write_text(_readme(settings), encoding="utf-8")
     (out / ".gitignore").write_text(_GITIGNORE, encoding="utf-8")
 
     problems = leaks(out) + [f"{rel}: must never ship to students" for rel in NEVER_TO_STUDENTS
@@ -304,7 +331,11 @@ def write_release(out, *, data=None, force: bool = False) -> list[Path]:
 
 
 def main(args) -> int:
-    files = write_release(args.out, data=args.data, force=args.force)
+    from kit.notebooks import Settings, load_settings
+
+    base = load_settings()
+    settings = Settings(args.repo_url or base.repo_url, args.ref or base.ref)
+    files = write_release(args.out, data=args.data, force=args.force, settings=settings)
     size = sum(p.stat().st_size for p in files) / 2**20
     print(f"wrote the student release to {Path(args.out).resolve()}: {len(files)} files, {size:.1f} MB")
     print("contents: " + ", ".join(sorted({p.relative_to(Path(args.out).resolve()).parts[0] for p in files})))
@@ -316,3 +347,8 @@ def add_arguments(p) -> None:
     p.add_argument("--out", required=True, help="folder to write (outside the kit; new or empty)")
     p.add_argument("--data", default=None, help="data folder to ship (default: the kit's data/)")
     p.add_argument("--force", action="store_true", help="replace a previous release in --out")
+    p.add_argument("--repo-url", default=None,
+                   help="the repository students get the kit from: https://github.com/ORG/REPO, where you push "
+                        "this release (or a local file:///PATH); default: notebooks/src/settings.json, whose "
+                        "placeholder is refused")
+    p.add_argument("--ref", default=None, help="branch or tag of that repository (default: settings.json, main)")

@@ -13,7 +13,10 @@ blocks of those, and ``name = from_notebook(...)`` lines (so chains work).  Cons
 data loading and every other statement are skipped, so loading is quick and has no side effects.
 The notebook is looked up beside the running one (the current folder), so the answer key's
 notebooks load the answer key's siblings and yours load yours; a copy that Colab or a browser
-renamed ("Copy of q2_eightpoint.ipynb") is found by the stem in its metadata.
+renamed ("Copy of q2_eightpoint.ipynb") is found by the stem in its metadata.  On Colab the
+setup cell also names the folders of Google Drive where your notebooks are kept (``$HW4_NOTEBOOKS``:
+MyDrive/hw4 and MyDrive/Colab Notebooks); then the most recently saved notebook of that problem in
+any of them is used, and a line says which file it was (:func:`locate_notebook`).
 
 :func:`try_run` calls a function and turns ``NotImplementedError`` into a one-line note, so a
 notebook whose stubs are not written yet still runs from top to bottom.
@@ -32,12 +35,59 @@ from pathlib import Path
 from typing import Any
 
 from core.manifest import NOTEBOOKS, QUESTIONS
-from core.notebook import NotebookUnreadable, definitions, find_notebook, python_cells
+from core.notebook import NotebookUnreadable, definitions, find_notebook, notebook_stem, python_cells
 
-__all__ = ["from_notebook", "notebook_definitions", "try_run"]
+__all__ = ["NOTEBOOKS_ENV", "from_notebook", "homework_notebooks", "locate_notebook", "notebook_definitions",
+           "notebook_folders", "try_run"]
+
+# Set by the notebooks' setup cell on Colab: the folders (os.pathsep-separated) that hold the
+# student's notebooks, searched after the current folder.
+NOTEBOOKS_ENV = "HW4_NOTEBOOKS"
 
 # Notebooks being loaded right now, to report a cycle instead of recursing forever.
 _LOADING: list[Path] = []
+
+
+def notebook_folders(folder=None) -> list[Path]:
+    """Where a homework notebook is looked for: ``folder`` (default: the current folder), then the
+    folders of ``$HW4_NOTEBOOKS`` that exist (set by the setup cell on Colab; unset elsewhere)."""
+    first = Path(folder) if folder is not None else Path.cwd()
+    extra = [Path(f) for f in os.environ.get(NOTEBOOKS_ENV, "").split(os.pathsep) if f]
+    out = [first]
+    for f in extra:
+        if f.is_dir() and f.resolve() not in {o.resolve() for o in out}:
+            out.append(f)
+    return out
+
+
+def locate_notebook(stem: str, folder=None, *, search: bool = True) -> Path | None:
+    """The notebook of problem ``stem`` ("q2_eightpoint"), or None.
+
+    Without ``$HW4_NOTEBOOKS`` (or with ``search=False``): ``<stem>.ipynb`` in ``folder`` (default:
+    the current folder), else a copy there whose metadata names ``stem``
+    (:func:`core.notebook.find_notebook`).  With it (Colab): every notebook of that problem in
+    :func:`notebook_folders`, whatever its name ("Copy of q2_eightpoint.ipynb", "... (1).ipynb"),
+    and the most recently saved one wins, since Colab saves the notebook being worked on.
+    """
+    if stem not in NOTEBOOKS:
+        raise ValueError(f"stem: expected one of {list(NOTEBOOKS)}, got {stem!r}")
+    folders = notebook_folders(folder) if search else [Path(folder) if folder is not None else Path.cwd()]
+    if len(folders) == 1:
+        return find_notebook(folders[0], stem)
+    found = []
+    for f in folders:
+        for path in f.glob("*.ipynb"):
+            try:
+                if path.is_file() and (path.stem == stem or notebook_stem(path.read_bytes()) == stem):
+                    found.append(path)
+            except OSError:
+                continue
+    return max(found, key=lambda p: (p.stat().st_mtime, p.name == f"{stem}.ipynb")) if found else None
+
+
+def homework_notebooks(folder=None) -> dict[str, Path]:
+    """Problem stem -> its notebook (:func:`locate_notebook`), for every problem found, in homework order."""
+    return {stem: path for stem in NOTEBOOKS if (path := locate_notebook(stem, folder)) is not None}
 
 
 def _resolve(notebook, folder) -> Path:
@@ -46,18 +96,28 @@ def _resolve(notebook, folder) -> Path:
     path = Path(notebook).expanduser()
     if path.suffix != ".ipynb":
         raise ValueError(f"notebook: expected a .ipynb file name, got {str(notebook)!r}")
+    searched = [path.parent]
     if not path.is_absolute():
+        search = folder is None
         if folder is None:
             # A from_notebook line inside a notebook being loaded means that notebook's folder.
             folder = _LOADING[-1].parent if _LOADING else Path.cwd()
         path = Path(folder) / path
+        if path.stem in NOTEBOOKS and len(Path(notebook).parts) == 1:
+            searched = notebook_folders(folder) if search else [Path(folder)]
+            found = locate_notebook(path.stem, folder, search=search)
+            if found is not None and found != path:
+                print(f"{path.stem}: using {found}")
+            path = found or path
     if not path.is_file() and path.stem in NOTEBOOKS:
         path = find_notebook(path.parent, path.stem) or path
     if not path.is_file():
         raise FileNotFoundError(
-            f"notebook: {path.name} not found in {path.parent}. Keep your homework notebooks in one "
-            f"folder; on Colab, upload your {path.name} with the Files panel (it goes to "
-            f"{path.parent}), or paste the function into a cell of this notebook instead.")
+            f"notebook: {path.name} not found in {' or '.join(str(f) for f in searched)}. Keep your homework "
+            f"notebooks in one folder. On Colab, run the setup cell (first code cell) and keep your notebooks "
+            f"in Google Drive: File > Save a copy in Drive puts them in MyDrive/Colab Notebooks (MyDrive/hw4 "
+            f"works too; names such as 'Copy of {path.name}' are fine). Or paste the function into a cell "
+            f"of this notebook instead.")
     return path.resolve()
 
 
