@@ -2,23 +2,40 @@
 
 from __future__ import annotations
 
-
 from judging import fundamental as jf
 from judging.mistakes import mistake
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
 from ._scenes import NoisyPair, default_temple, two_view
-from .report import CheckReport, call
+from .instrument import refineF_switched_off
+from .report import CheckReport, Outcome, call
 
 __all__ = ["check_eightpoint"]
 
 _N_NOISY = 20
+_OFF = "refineF switched off"
 
 
 def _default_goal(M) -> float:
     # No reference runs here, so the goal is one that a valid unrefined 1/M eight-point (the
     # weakest valid method: about 3 px RMS on a small noisy pair) keeps: 5 px.
     return 5.0
+
+
+def _switched_off(eightpoint):
+    """eightpoint run with refineF switched off: returns (F, number of refineF calls)."""
+    def run(pts1, pts2, M):
+        return refineF_switched_off(eightpoint, pts1, pts2, M)
+    run.__name__ = getattr(eightpoint, "__name__", "eightpoint")
+    return run
+
+
+def _off_value(out):
+    """The switched-off run's Outcome with its F alone, and whether refineF was called."""
+    if not out.ok:
+        return out, False
+    value, calls = out.value
+    return (Outcome("ok", value) if value is not None else Outcome("not implemented")), calls > 0
 
 
 def check_eightpoint(eightpoint, *, scene: NoisyPair | None = None, root=None, verbose: bool = True) -> CheckReport:
@@ -35,10 +52,16 @@ def check_eightpoint(eightpoint, *, scene: NoisyPair | None = None, root=None, v
     Checked (judging.fundamental): exact matches lie on the epipolar lines of F; on noisy
     matches F has rank 2 and uint16 points give the same F as float points; on the default data
     the matches lie near their lines (a few pixels: they are noisy).
+
+    When ``eightpoint`` calls ``refineF`` (by a global name: the notebook's), the exact-match
+    and rank items are judged twice: on F as returned, and on F with refineF switched off
+    (a stand-in that returns F unchanged, put in place for the call and removed after it),
+    since refineF can hide a mistake made before it (a transposed F, a missing rank-2 step).
     """
     report = CheckReport("eightpoint")
     tv = scene or two_view()
     pair = tv.pair
+    off = _switched_off(eightpoint)
 
     out = call(eightpoint, pair.pts1.copy(), pair.pts2.copy(), tv.M)
     if stop_if_not_implemented(report, out):
@@ -47,23 +70,37 @@ def check_eightpoint(eightpoint, *, scene: NoisyPair | None = None, root=None, v
         F = read_or_report(report, jf.read_F, out.value, label="returns a 3x3 F (exact matches)")
         if F is not None:
             report.judged(jf.exact_fit(F, pair.pts1, pair.pts2, tv.M), "exact matches")
+    out_off, refines = _off_value(call(off, pair.pts1.copy(), pair.pts2.copy(), tv.M))
+    if refines and not run_failed(report, out_off, f"exact matches, {_OFF}"):
+        F = read_or_report(report, jf.read_F, out_off.value, label=f"returns a 3x3 F (exact matches, {_OFF})")
+        if F is not None:
+            report.judged(jf.exact_fit(F, pair.pts1, pair.pts2, tv.M), f"exact matches, {_OFF}")
 
     # 20 noisy matches are enough (and still overflow uint16): refineF's cost grows with them.
     k = slice(0, _N_NOISY)
     p1, p2 = tv.pts1_u16[k], tv.pts2_u16[k]
-    out_f = call(eightpoint, p1.astype(float), p2.astype(float), tv.M)
-    out_u = call(eightpoint, p1.copy(), p2.copy(), tv.M)
-    if not run_failed(report, out_f, "noisy matches (float)"):
-        Ff = read_or_report(report, jf.read_F, out_f.value, label="returns a 3x3 F (noisy matches)")
-        if Ff is not None:
-            report.judged(jf.rank_two(Ff, tv.M), "noisy matches")
-            if out_u.ok:
-                Fu = read_or_report(report, jf.read_F, out_u.value, label="returns a 3x3 F (uint16 points)")
-                if Fu is not None:
-                    report.judged(jf.uint16_same(Fu, Ff))
-            else:
-                report.add("runs on uint16 points (the data files' type)", False, out_u.message,
-                           mistakes=[mistake("uint16_wraparound", "it fails on uint16 input only")])
+    runs = [("", eightpoint)] + ([(f", {_OFF}", off)] if refines else [])
+    for suffix, fn in runs:
+        out_f = call(fn, p1.astype(float), p2.astype(float), tv.M)
+        out_u = call(fn, p1.copy(), p2.copy(), tv.M)
+        if suffix:
+            out_f, out_u = _off_value(out_f)[0], _off_value(out_u)[0]
+        if run_failed(report, out_f, f"noisy matches (float{suffix})"):
+            continue
+        Ff = read_or_report(report, jf.read_F, out_f.value, label=f"returns a 3x3 F (noisy matches{suffix})")
+        if Ff is None:
+            continue
+        report.judged(jf.rank_two(Ff, tv.M), f"noisy matches{suffix}")
+        if out_u.ok:
+            Fu = read_or_report(report, jf.read_F, out_u.value, label=f"returns a 3x3 F (uint16 points{suffix})")
+            if Fu is not None:
+                report.judged(jf.uint16_same(Fu, Ff), suffix.lstrip(", "))
+        else:
+            report.add(f"runs on uint16 points (the data files' type{suffix})", False, out_u.message,
+                       mistakes=[mistake("uint16_wraparound", "it fails on uint16 input only")])
+    if refines:
+        report.notes.append("your eightpoint calls refineF, so it was also run with refineF switched off (a "
+                            "stand-in returning F unchanged): refineF can hide a mistake made before it")
 
     data, note = default_temple(root) if scene is None else (None, "")
     if scene is None and data is None:

@@ -17,7 +17,7 @@ from typing import Any
 from judging.mistakes import Mistake
 from judging.verdict import Verdict
 
-__all__ = ["DISCLAIMER", "NOT_IMPLEMENTED", "CheckItem", "CheckReport", "Outcome", "call"]
+__all__ = ["DISCLAIMER", "NOT_IMPLEMENTED", "CheckItem", "CheckReport", "Outcome", "call", "student_frame"]
 
 NOT_IMPLEMENTED = "not implemented yet"
 DISCLAIMER = "These are public checks: passing them promises nothing about the hidden tests."
@@ -189,7 +189,12 @@ def _is_empty(value) -> bool:
 
 
 def call(fn: Callable, *args, **kwargs) -> Outcome:
-    """Run the student's ``fn(*args, **kwargs)`` and report how it ended, never raising."""
+    """Run the student's ``fn(*args, **kwargs)`` and report how it ended, never raising.
+
+    An exception becomes one line "ExceptionType: message (in <function>, <cell or file>, line L)",
+    the place being the innermost frame of the traceback that lies in the student's code (not in
+    numpy, scipy, the standard library or the kit's own packages).
+    """
     if not callable(fn):
         return Outcome("error", message=f"expected a function, got {type(fn).__name__}")
     try:
@@ -200,7 +205,70 @@ def call(fn: Callable, *args, **kwargs) -> Outcome:
         text = " ".join(str(exc).split())
         if len(text) > 200:
             text = text[:197] + "..."
-        return Outcome("error", message=f"{type(exc).__name__}: {text}" if text else type(exc).__name__)
+        line = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+        where = student_frame(exc.__traceback__)
+        return Outcome("error", message=f"{line} (in {where})" if where else line)
     if _is_empty(value):
         return Outcome("not implemented")
     return Outcome("ok", value)
+
+
+# Code that is not the student's: the interpreter's own library and installed packages, and the
+# kit's packages (a frame there is a helper the student called, not the line to look at).
+_KIT_PACKAGES = ("core", "scenes", "starter", "judging", "handin", "kit", "autograder", "solutions")
+
+
+def _library_roots() -> tuple[str, ...]:
+    import os
+    import sys
+    import sysconfig
+
+    roots = {sys.prefix, sys.base_prefix, sys.exec_prefix, *(sysconfig.get_paths().get(k, "") for k in
+                                                             ("stdlib", "platstdlib", "purelib", "platlib"))}
+    kit = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    roots |= {os.path.join(kit, p) + os.sep for p in _KIT_PACKAGES}
+    return tuple(sorted(r for r in roots if r))
+
+
+def _is_student_file(filename: str) -> bool:
+    import os
+
+    if filename.startswith("<frozen") or filename in ("<string>", "<stdin>"):
+        return False
+    if filename.startswith("<"):
+        return True  # exec'd cells, from_notebook's "<name>.ipynb, cell k"
+    path = os.path.abspath(filename)
+    return not any(path == r.rstrip(os.sep) or path.startswith(r if r.endswith(os.sep) else r + os.sep)
+                   for r in _library_roots())
+
+
+def _cell_label(filename: str) -> str:
+    """'cell In[5]' for a notebook cell run in IPython, the file's name otherwise."""
+    import os
+
+    try:
+        from IPython import get_ipython
+
+        shell = get_ipython()
+        number = None if shell is None else getattr(shell.compile, "_filename_map", {}).get(filename)
+    except Exception:  # noqa: BLE001 - no IPython, or another one: fall back to the file's name
+        number = None
+    if number is not None:
+        return f"cell In[{number}]"
+    if filename.startswith("<") or ".ipynb, cell" in filename:
+        return filename.strip("<>")
+    return os.path.basename(filename)
+
+
+def student_frame(tb) -> str:
+    """'<function>, <cell or file>, line L' of the innermost traceback frame in student code, or ''."""
+    found = None
+    while tb is not None:
+        code = tb.tb_frame.f_code
+        if _is_student_file(code.co_filename):
+            found = (code.co_name, code.co_filename, tb.tb_lineno)
+        tb = tb.tb_next
+    if found is None:
+        return ""
+    name, filename, line = found
+    return f"{name}, {_cell_label(filename)}, line {line}"
