@@ -35,6 +35,7 @@ __all__ = [
     "same_up_to_scale",
     "threshold_mistakes",
     "uint16_wraparound",
+    "w_not_divided",
     "wrong_camera",
 ]
 
@@ -97,6 +98,11 @@ KNOWN_MISTAKES: dict[str, tuple[str, str]] = {
     "e_transposed": (
         "E transposed",
         "E = K2^T F K1 (not its transpose K1^T F^T K2): x2n^T E x1n = 0 for normalised points."),
+    "w_not_divided": (
+        "w not divided by its last coordinate",
+        ("each row of w is a multiple of a right 3D point, by a factor that differs from point to point: "
+         "look at where the homogeneous solution (4 numbers, defined up to scale) becomes the 3 coordinates "
+         "of w.")),
     "error_not_sum_of_squares": (
         "error not the sum of squares",
         ("err = sum over the points of |x1 - proj(C1, w)|^2 + |x2 - proj(C2, w)|^2, in pixels^2: "
@@ -356,6 +362,70 @@ def error_not_sum_of_squares(err, res1, res2, rtol: float = 1e-4) -> Mistake | N
         if np.isclose(e, value, rtol=rtol, atol=1e-9):
             return mistake("error_not_sum_of_squares", f"err = {e:.6g} is {what}; the sum of squares is {total:.6g}")
     return mistake("error_not_sum_of_squares", f"err = {e:.6g}, but your points give a sum of squares of {total:.6g}")
+
+
+def _dehomogenising_factors(w, C1, pts1, C2, pts2) -> np.ndarray:
+    """Per point, the h (N,) for which w_i / h projects closest to its matches (least squares).
+
+    (w_i, h) as a homogeneous point projects through C to (a1 + b1 h) / (a3 + b3 h) with
+    a = C[:, :3] w_i and b = C[:, 3]; setting that to the pixel is linear in h.
+    """
+    w = np.asarray(w, float)
+    num, den = np.zeros(len(w)), np.zeros(len(w))
+    for C, p in ((C1, pts1), (C2, pts2)):
+        C, p = np.asarray(C, float), np.asarray(p, float)
+        a, b = w @ C[:, :3].T, C[:, 3]
+        for j in (0, 1):
+            d = p[:, j] * b[2] - b[j]
+            n = a[:, j] - p[:, j] * a[:, 2]
+            num += n * d
+            den += d * d
+    with np.errstate(all="ignore"):
+        return num / den
+
+
+def w_not_divided(w, X=None, cameras=None, rtol: float = 1e-4) -> Mistake | None:
+    """Mistake when each point of w (N, 3) is a right point times its own factor (w = X[:3] of a
+    homogeneous solution X never divided by X[3]).
+
+    X : (N, 3) the true points (noise-free matches): w_i is then parallel to X_i.
+    cameras : (C1, pts1, C2, pts2) instead (noisy matches): w_i / h_i, with h_i fitted to the
+        matches, reprojects far better than w_i.
+    Not reported when every factor is 1 (to 1e-3): w is then not the problem.
+    """
+    w = np.asarray(w, float)
+    if w.ndim != 2 or w.shape[1] != 3 or len(w) == 0 or not np.all(np.isfinite(w)):
+        return None
+    if X is not None:
+        X = np.asarray(X, float)
+        if X.shape != w.shape:
+            return None
+        with np.errstate(all="ignore"):
+            c = np.sum(w * X, axis=1) / np.sum(X * X, axis=1)
+            off = np.linalg.norm(w - c[:, None] * X, axis=1) / np.maximum(np.linalg.norm(w, axis=1), 1e-300)
+        if np.all(np.isfinite(c)) and np.all(off <= rtol) and np.max(np.abs(c - 1)) > 1e-3:
+            return mistake("w_not_divided", f"every row of w is the true point times a factor between "
+                                            f"{np.min(c):.2g} and {np.max(c):.2g}")
+        return None
+    if cameras is None:
+        return None
+    C1, pts1, C2, pts2 = cameras
+    h = _dehomogenising_factors(w, C1, pts1, C2, pts2)
+    if not np.all(np.isfinite(h)) or np.any(h == 0) or np.max(np.abs(h - 1)) <= 1e-3:
+        return None
+
+    def total(v):
+        from core.geometry import project
+
+        with np.errstate(all="ignore"):
+            r = np.concatenate([np.asarray(pts1, float) - project(C1, v), np.asarray(pts2, float) - project(C2, v)])
+            return float(np.sum(r ** 2))
+
+    own, divided = total(w), total(w / h[:, None])
+    if np.isfinite(divided) and divided <= 0.25 * own:
+        return mistake("w_not_divided", f"dividing each row of w by its own factor ({np.min(h):.2g} to "
+                                        f"{np.max(h):.2g}) brings the error from {own:.3g} to {divided:.3g} px^2")
+    return None
 
 
 # ----------------------------------------------------------------------------- Q3.3: M2

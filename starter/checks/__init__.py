@@ -1,14 +1,16 @@
 """Public self-checks for students: run one on your function to see what works and what does not.
 
 Each ``check_<name>(your_function)`` runs your function on generated scenes whose answers are
-known, and on the default data in data/ when it is there, then prints one line per check (a
+known (and, for eightpoint, essentialMatrix and MultiviewReconstruction, on the default data in
+data/ when it is there; the other checks would need a reference answer to use them), then prints one line per check (a
 tick or a cross, the figure measured and the goal) and names any known mistake it recognises,
 with a hint.  It returns a :class:`CheckReport` (``.passed``, ``.items``, ``.mistakes``).
 
 >>> from starter.checks import check_eightpoint      # doctest: +SKIP
 >>> check_eightpoint(eightpoint)                      # doctest: +SKIP
 
-These are public checks: passing them promises nothing about the hidden tests.
+These are public checks: passing them promises nothing about the hidden tests.  They never use
+OpenCV, so they say the same wherever they run (Colab has OpenCV, a local install may not).
 """
 
 from judging.mistakes import KNOWN_MISTAKES, Mistake

@@ -5,8 +5,8 @@ session (about a second).  The two-view data reuse the generated temple's 3D poi
 cameras at the official scale (640 x 480, M = 640, products of coordinates above 65535), with
 a camera 2 whose intrinsics differ from camera 1's, so that K1 and K2 cannot be confused
 unnoticed.  The default data is whatever ``starter.load_temple`` / ``load_car_frame`` find; it
-has no ground truth, so the checks compare with an independent estimate made with OpenCV when
-it is installed.
+has no ground truth: the checks that would need a reference answer to use it (an F, a pose)
+leave it out.  Nothing here uses OpenCV, so the checks are the same with and without it.
 """
 
 from __future__ import annotations
@@ -16,20 +16,18 @@ from functools import lru_cache
 
 import numpy as np
 
-from core.geometry import IDENTITY_POSE, CameraPair
-from judging.triangulation import reprojection_error
+from core.geometry import CameraPair
 
 __all__ = [
     "PUBLIC_SEED",
+    "NO_DEFAULT_DATA",
     "NoisyPair",
-    "OpenCVReference",
     "car_frame",
     "default_car",
     "default_temple",
-    "linear_triangulation_error",
     "noisy_pair",
-    "opencv_reference",
     "temple_scene",
+    "triangulation_goal",
     "two_view",
 ]
 
@@ -117,57 +115,27 @@ def default_car(root=None):
         return None, f"the car data could not be read ({exc}): checked on a generated scene only"
 
 
-@dataclass(frozen=True, eq=False)
-class OpenCVReference:
-    """An independent two-view estimate on the default data (no ground truth there).
-
-    F : (3, 3) pixels, 8-point on the clean matches.  M2 : (3, 4), |t| = 1, the pose OpenCV
-    recovers from this F.  C1, C2 : (3, 4).  w : (N, 3) the matches triangulated with C1, C2 (linear).
-    err : their total squared reprojection error.
-    """
-
-    F: np.ndarray
-    M2: np.ndarray
-    C1: np.ndarray
-    C2: np.ndarray
-    w: np.ndarray
-    err: float
+# The default data have no cameras, no F and no true points of their own: only the checks that
+# need none of them (eightpoint, essentialMatrix with the data's intrinsics, MultiviewReconstruction)
+# use them.  The others would need a reference answer (an F, a pose) to start from; the checks
+# use none, and no OpenCV either, so that they are the same wherever they run.
+NO_DEFAULT_DATA = ("the default data are not used by this check: they come with no cameras or F, and the "
+                   "checks use no reference answer (nor OpenCV) to make them")
 
 
-_REFERENCES: dict = {}
+def triangulation_goal(C1, pts1, C2, pts2, *starts) -> float:
+    """The total squared reprojection error (pixels^2) a triangulation of the matches (N, 2) with
+    C1, C2 (3, 4) can reach: judging.triangulation.optimal_error polished from ``starts`` (N, 3)
+    (the true points, the student's own; malformed ones are skipped)."""
+    from judging.triangulation import optimal_error
 
-
-def opencv_reference(data):
-    """(OpenCVReference or None, note) for a TempleData; None when OpenCV is not installed."""
-    try:
-        import cv2
-    except ImportError:
-        return None, "OpenCV (cv2) is not installed: the default data is only partly checked"
-    key = str(data.folder)
-    if key not in _REFERENCES:
-        p1, p2 = np.ascontiguousarray(data.pts1, float), np.ascontiguousarray(data.pts2, float)
-        F, _ = cv2.findFundamentalMat(p1, p2, cv2.FM_8POINT)
-        # The pose of this very F, so that a findM2 given F can be compared with it; OpenCV
-        # wants E and the points in normalised camera coordinates.
-        n1 = cv2.undistortPoints(p1[:, None], data.K1, None)[:, 0]
-        n2 = cv2.undistortPoints(p2[:, None], data.K2, None)[:, 0]
-        _, R, t, _ = cv2.recoverPose(data.K2.T @ F @ data.K1, n1, n2, np.eye(3))
-        M2 = np.hstack([R, t.reshape(3, 1) / np.linalg.norm(t)])
-        C1, C2 = data.K1 @ IDENTITY_POSE, data.K2 @ M2
-        X = cv2.triangulatePoints(C1, C2, p1.T, p2.T)
-        w = (X[:3] / X[3]).T
-        err = reprojection_error(C1, p1, C2, p2, w)
-        _REFERENCES[key] = OpenCVReference(F / np.linalg.norm(F), M2, C1, C2, w, err)
-    return _REFERENCES[key], ""
-
-
-def linear_triangulation_error(C1, pts1, C2, pts2) -> float | None:
-    """The total squared reprojection error (pixels^2) of OpenCV's linear triangulation of the
-    matches (N, 2) with the cameras C1, C2 (3, 4); None when OpenCV is not installed."""
-    try:
-        import cv2
-    except ImportError:
-        return None
-    p1, p2 = np.ascontiguousarray(pts1, float), np.ascontiguousarray(pts2, float)
-    X = cv2.triangulatePoints(np.asarray(C1, float), np.asarray(C2, float), p1.T, p2.T)
-    return reprojection_error(C1, p1, C2, p2, (X[:3] / X[3]).T)
+    n = len(np.asarray(pts1))
+    good = []
+    for X in starts:
+        try:
+            X = np.asarray(X, dtype=float)
+        except (TypeError, ValueError):
+            continue
+        if X.shape == (n, 3):
+            good.append(X)
+    return optimal_error(C1, pts1, C2, pts2, *good)

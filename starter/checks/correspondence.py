@@ -6,21 +6,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.geometry import project
 from judging import correspondence as jc
 from judging.verdict import Malformed
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
-from ._scenes import default_temple, opencv_reference, temple_scene
+from ._scenes import NO_DEFAULT_DATA, temple_scene
 from .report import CheckReport, Outcome, call
 
 __all__ = ["MatchCase", "check_compute3D_pts", "check_epipolarCorrespondence"]
 
 _N_POINTS = 30
 # No reference matcher runs here: on the generated pair a good matcher finds nearly every point
-# (ref_share 1); on the default data the "truth" is the noisy clean matches, of which a good
-# matcher finds about 86 % (goal 60 %).
-_DEFAULT_REF_SHARE = 0.86
+# (ref_share 1).
 _CALL = "compute3D_pts(im1, im2, F, x1, y1, C1, C2)"
 
 
@@ -58,30 +55,10 @@ def _generated_case() -> MatchCase:
                      M2=s.M2)
 
 
-def _default_case(root) -> tuple[MatchCase | None, str]:
-    data, note = default_temple(root)
-    ref, note_cv = opencv_reference(data) if data is not None else (None, "")
-    if data is None or ref is None:
-        return None, note or note_cv
-    step = max(1, len(data.pts1) // _N_POINTS)   # every k-th clean match spreads the sample over the object
-    k = np.arange(0, len(data.pts1), step)[:_N_POINTS]
-    # The "true" 3D points are the clean matches triangulated with OpenCV's cameras; a point is
-    # compared with them where both project, so errors of the cameras do not count against the matching.
-    return MatchCase("default data", data.im1, data.im2, ref.F, data.pts1[k], data.pts2[k], ref.C1, ref.C2,
-                     jc.tolerance(data.im1.shape[1]), _DEFAULT_REF_SHARE, _DEFAULT_REF_SHARE, ref.M2,
-                     project(ref.C1, ref.w[k]), project(ref.C2, ref.w[k])), ""
-
-
 def _cases(cases, root) -> tuple[list, list[str]]:
     if cases is not None:
         return list(cases), []
-    out, notes = [_generated_case()], []
-    default, note = _default_case(root)
-    if default is None:
-        notes.append(note)
-    else:
-        out.append(default)
-    return out, notes
+    return [_generated_case()], [NO_DEFAULT_DATA]
 
 
 def _match_all(fn, case) -> Outcome:
@@ -100,15 +77,14 @@ def _match_all(fn, case) -> Outcome:
 
 
 def check_epipolarCorrespondence(epipolarCorrespondence, *, cases=None, root=None, verbose: bool = True) -> CheckReport:
-    """Match points of a generated pair (true matches known) and of the default data.
+    """Match points of a generated pair (true matches known).
 
     Parameters
     ----------
     epipolarCorrespondence : the student's function (im1, im2, F, x1, y1) -> (x2, y2), images
         (H, W, 3), F (3, 3) with x2^T F x1 = 0, pixels (x, y) = (column, row).
-    cases : the MatchCases to check on (default: a generated 320 x 240 pair with its true F, and
-        the default data's clean matches with an F OpenCV fits to them).
-    root : data folder for the default data (default: data/ or $HW4_DATA).
+    cases : the MatchCases to check on (default: a generated 320 x 240 pair with its true F).
+    root : accepted like every check's; the default data are not used (they have no F).
     verbose : print the report.
 
     Checked (judging.correspondence): most matches within a few pixels of the true ones.
@@ -133,7 +109,7 @@ def _explain_call_error(out: Outcome) -> Outcome:
 
 
 def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, verbose: bool = True) -> CheckReport:
-    """Reconstruct points of a generated pair (true 3D known) and of the default data.
+    """Reconstruct points of a generated pair (true 3D known).
 
     Parameters
     ----------
@@ -141,7 +117,7 @@ def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, verbose: bool =
         C2) with x1, y1 (N, 1) integer arrays like templeCoords.npz's; it returns w (N, 3) or
         (w, pts2) with pts2 (N, 2) the matches found.
     cases : the MatchCases to check on (default as for check_epipolarCorrespondence).
-    root : data folder for the default data (default: data/ or $HW4_DATA).
+    root : accepted like every check's; the default data are not used (they have no F or cameras).
     verbose : print the report.
 
     Checked (judging.correspondence): most points reproject within a few pixels of the point in
