@@ -24,7 +24,7 @@ def _gap(E, G) -> float:
 
 def essential(E, F, K1, K2) -> Verdict:
     """E (3, 3) equals K2^T F K1 up to scale and sign (F, K1, K2 (3, 3) the inputs); names the formula used."""
-    what = "E = K2^T F K1 up to scale"
+    what = "E is the essential matrix of F, K1 and K2 (up to scale)"
     E, F, K1, K2 = (np.asarray(a, float) for a in (E, F, K1, K2))
     expected = K2.T @ F @ K1
     if not (np.all(np.isfinite(E)) and np.any(E)):

@@ -60,44 +60,53 @@ class Mistake:
 
 
 KNOWN_MISTAKES: dict[str, tuple[str, str]] = {
+    # Each hint says what is wrong and where to look, not the fix; facts the handout gives as
+    # given (the x2^T F x1 = 0 convention, T that scales the points, the residuals' layout, the
+    # error's definition) may be named, never the answer it asks students to find.
     "f_transposed": (
         "F transposed",
-        ("F must send a point of image 1 to its line in image 2 (x2^T F x1 = 0); you return F^T: "
-         "check the order of x1 and x2 in each row of your system.")),
+        ("F must send a point of image 1 to its line in image 2 (x2^T F x1 = 0); yours is the transpose: "
+         "look at the order of the image-1 and image-2 coordinates in each row of your system.")),
     "f_rank3": (
         "rank 2 not enforced",
-        "set the smallest singular value of F to zero (SVD) before unscaling: a fundamental matrix has rank 2."),
+        ("a fundamental matrix is singular (rank 2) and yours has full rank: look at the step the handout "
+         "asks for before unscaling (the singularity condition); refineF may hide that it is missing.")),
     "f_not_unscaled": (
         "F not unscaled",
-        ("F was fitted to the points divided by M; return T^T F T with T = diag(1/M, 1/M, 1) so that it "
-         "works on pixels.")),
+        ("your F fits the points divided by M, not the pixels: the unscaling step the handout's hint "
+         "describes is missing.")),
     "f_unscaled_wrong_way": (
         "F unscaled the wrong way",
-        ("unscale with the matrix that scaled the points, T = diag(1/M, 1/M, 1): F_pixels = T^T F T "
-         "(not diag(M, M, 1)).")),
+        ("you unscaled with the inverse of the matrix T that scaled the points (x_scaled = T x): "
+         "look at which matrix your unscaling uses.")),
     "xy_swapped": (
         "x and y swapped",
-        ("a pixel is (x, y) = (column, row): x indexes columns and y rows; keep that order in the points "
-         "you use and return.")),
+        ("a pixel is (x, y) = (column, row): x indexes columns and y rows; look at the order of the "
+         "coordinates you use and return.")),
     "uint16_wraparound": (
         "uint16 wrap-around",
-        ("the data files hold uint16 points, where 54 - 55 is 65535 and products overflow: cast them with "
-         ".astype(float) before any arithmetic.")),
+        ("the data files hold uint16 points, where 54 - 55 is 65535 and products above 65535 wrap around: "
+         "look at the dtype your arithmetic runs in.")),
     "e_k_order": (
         "K1 and K2 swapped in E",
-        "E = K2^T F K1: F takes image-1 points, so K1 goes on the right and K2^T on the left."),
+        ("your E has the intrinsics of each camera where the other's belong: F takes points of image 1 "
+         "(x2^T F x1 = 0), so look at which side of F each camera's intrinsics act on.")),
     "e_missing_k": (
         "a K missing in E",
-        "E = K2^T F K1 needs both intrinsics, one on each side of F."),
+        ("E relates normalised coordinates of both images, so both cameras' intrinsics enter it: "
+         "look at which one your E leaves out.")),
     "e_inverse_k": (
         "inverse K in E",
-        "E = K2^T F K1; it is F that has the inverses (F = K2^-T E K1^-1)."),
+        ("your E uses inverted intrinsics: look at which way your formula goes, from E to F or from F to E "
+         "(pixels versus normalised coordinates).")),
     "e_same_k": (
         "the same K on both sides of E",
-        "E = K2^T F K1 uses K1 on the right and K2 on the left; they differ in general."),
+        ("your E uses one camera's intrinsics on both sides of F; each image has its own, and here "
+         "they differ.")),
     "e_transposed": (
         "E transposed",
-        "E = K2^T F K1 (not its transpose K1^T F^T K2): x2n^T E x1n = 0 for normalised points."),
+        ("your E is the transpose of the essential matrix: like F, it takes (normalised) points of image 1 "
+         "to lines of image 2; look at the order of your factors.")),
     "w_not_divided": (
         "w not divided by its last coordinate",
         ("each row of w is a multiple of a right 3D point, by a factor that differs from point to point: "
@@ -105,42 +114,44 @@ KNOWN_MISTAKES: dict[str, tuple[str, str]] = {
          "of w.")),
     "error_not_sum_of_squares": (
         "error not the sum of squares",
-        ("err = sum over the points of |x1 - proj(C1, w)|^2 + |x2 - proj(C2, w)|^2, in pixels^2: "
-         "no mean, no square root, both images.")),
+        ("err is not the handout's total (squared distances in pixels^2, both images, summed over the "
+         "points): compare your formula with the handout's.")),
     "points_behind": (
         "points behind a camera",
-        ("a correct reconstruction puts every point at positive depth in both cameras "
-         "(third coordinate of M [w; 1] > 0).")),
+        ("most of your points have a negative depth in camera 1 or camera 2 (the third coordinate of "
+         "M [w; 1]): look at how the camera, or the sign of the points, was chosen.")),
     "wrong_camera": (
         "wrong camera of the four",
-        ("choose the camera2 candidate that puts the points in front of both cameras; all four "
-         "reproject equally well, so the error cannot decide.")),
+        ("your M2 is another of camera2's four candidates: all four reproject the points equally well, "
+         "so the reprojection error cannot tell them apart; look at what else differs between them.")),
     "residual_layout": (
         "residuals in another layout",
-        ("residuals = concatenate([(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()]): image 1 first, "
-         "x then y of each point.")),
+        ("your residuals hold the right values in another order: compare your layout with the handout's "
+         "(where image 1 and image 2 go, and the x and y of each point).")),
     "x_packing": (
         "x unpacked in another order",
-        ("x = concatenate([w.ravel(), r2, t2]): the N points first (x, y, z of each), then the Rodrigues "
-         "vector r2, then t2.")),
+        ("x is read in another order than the handout's flattened concatenation of w, r2 and t2: look at "
+         "how you cut x into the points, r2 and t2, and the order of each point's coordinates.")),
     "ba_not_decreasing": (
         "BA error not decreasing",
-        ("the optimised error must be below the initial one: minimise the sum of squared residuals from "
-         "x0 = [w_init, r2, t2] and unpack the optimiser's result (res.x), not x0.")),
+        ("the returned M2 and w have no lower error than the start: look at what your code unpacks after "
+         "the optimiser has run, and at the objective it is given.")),
     "ba_scale_collapse": (
         "BA scale collapse",
-        ("points and t shrank together towards 0 and the result is no longer a reconstruction: any "
-         "scale is fine, but a vanishing one is degenerate; keep the optimiser away from t = 0.")),
+        ("points and t shrank together towards 0: any scale is right, but a vanishing one is no longer a "
+         "reconstruction; look at what keeps your optimisation from shrinking the scene.")),
     "threshold_inclusive": (
         "detections at exactly Thres used",
-        "use a detection only when its confidence is strictly greater than Thres (>, not >=)."),
+        ("detections whose confidence equals Thres were used: look at the comparison that selects the "
+         "detections (the handout keeps those above the threshold).")),
     "threshold_ignored": (
         "low-confidence detections used",
-        "leave out every detection whose confidence is not above Thres before triangulating."),
+        ("detections whose confidence is below Thres were used: look at where your code should leave "
+         "them out before triangulating.")),
     "threshold_too_strict": (
         "confident detections left out",
-        ("a detection whose confidence is above Thres must be used: a keypoint with two confident views "
-         "is triangulated from those two.")),
+        ("detections whose confidence is above Thres were left out: look at the comparison that selects "
+         "the detections, and at keypoints seen confidently in only two views.")),
 }
 
 
@@ -305,17 +316,17 @@ def essential_mistakes(E, F, K1, K2, rtol: float = 1e-6) -> list[Mistake]:
     right = K2.T @ F @ K1
     inv1, inv2 = np.linalg.inv(K1), np.linalg.inv(K2)
     candidates = [
-        ("e_k_order", "E = K1^T F K2", K1.T @ F @ K2),
-        ("e_missing_k", "E = F K1 (K2^T missing)", F @ K1),
-        ("e_missing_k", "E = K2^T F (K1 missing)", K2.T @ F),
-        ("e_missing_k", "E = F (both missing)", F),
-        ("e_missing_k", "E = K1^T F (K1 on the wrong side, K2 missing)", K1.T @ F),
-        ("e_missing_k", "E = F K2 (K2 on the wrong side, K1 missing)", F @ K2),
-        ("e_inverse_k", "E = K2^-T F K1^-1", inv2.T @ F @ inv1),
-        ("e_inverse_k", "E = K1^-T F K2^-1", inv1.T @ F @ inv2),
-        ("e_same_k", "E = K1^T F K1", K1.T @ F @ K1),
-        ("e_same_k", "E = K2^T F K2", K2.T @ F @ K2),
-        ("e_transposed", "E = K1^T F^T K2", right.T),
+        ("e_k_order", "K1^T F K2", K1.T @ F @ K2),
+        ("e_missing_k", "F K1", F @ K1),
+        ("e_missing_k", "K2^T F", K2.T @ F),
+        ("e_missing_k", "F itself", F),
+        ("e_missing_k", "K1^T F", K1.T @ F),
+        ("e_missing_k", "F K2", F @ K2),
+        ("e_inverse_k", "K2^-T F K1^-1", inv2.T @ F @ inv1),
+        ("e_inverse_k", "K1^-T F K2^-1", inv1.T @ F @ inv2),
+        ("e_same_k", "K1^T F K1", K1.T @ F @ K1),
+        ("e_same_k", "K2^T F K2", K2.T @ F @ K2),
+        ("e_transposed", "the transpose of the essential matrix", right.T),
     ]
     for code, formula, G in candidates:
         if not same_up_to_scale(G, right, rtol) and same_up_to_scale(E, G, rtol):

@@ -33,12 +33,12 @@ def check_essentialMatrix(essentialMatrix, *, scene: NoisyPair | None = None, in
     ----------
     essentialMatrix : the student's function (F (3, 3), K1 (3, 3), K2 (3, 3)) -> E (3, 3).
     scene : the pair to check on (default: the public generated pair, K1 != K2).
-    inputs : further (F, K1, K2) triples (any rank-2 F) to check E = K2^T F K1 on.
+    inputs : further (F, K1, K2) triples (any rank-2 F) to check E on.
     root : data folder for the default data's intrinsics (default: data/ or $HW4_DATA).
     verbose : print the report.
 
-    Checked (judging.essential): E equals K2^T F K1 up to scale and sign (with K1 != K2, so that
-    the order of the intrinsics matters), and for a true F its singular values are (s, s, 0).
+    Checked (judging.essential): E is the essential matrix of F, K1 and K2 up to scale and sign
+    (with K1 != K2, so that the order of the intrinsics matters), and for a true F its singular values are (s, s, 0).
     With the default data's intrinsics the same is checked for a known pose.
     """
     report = CheckReport("essentialMatrix")
