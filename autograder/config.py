@@ -12,6 +12,16 @@ secret and the other settings come, strongest first, from
 ``HW4_GRADER_SECRET`` overrides the secret of whichever file is used.  Keep the config file out of
 the student release; the grader hides it from the sandbox anyway.
 
+The official course data is used only when asked for: ``load_config(official_data=DIR)`` (the
+CLI's ``--official-data DIR``), the config file's ``official_data``, or ``HW4_COURSE_DATA`` set in
+the environment (read only when the config file does not name ``official_data`` itself).  A
+folder beside the kit is never picked up by itself.
+
+``configuration(config, ...)`` is what every result records about how it was graded (grader and
+kit version, a fingerprint of the secret, the data, the settings, the hidden tests' files and the
+sandbox's isolation level); ``configuration_key`` is the part of it that must agree for results
+to share one gradebook, and ``configuration_changes`` says in words how two records differ.
+
 Config file (JSON, every key optional)::
 
     {"secret": "a long random string", "official_data": "/path/to/course-data",
@@ -27,12 +37,13 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from core.paths import course_data_dir
+from core.paths import ENV_COURSE_DATA, KIT_ROOT
 from core.validate import as_positive_scalar
 
 __all__ = [
     "DEV_SECRET", "ENV_CONFIG", "ENV_SECRET", "GRADER_VERSION", "GradingConfig", "TempleSpec",
-    "load_config", "quick_config",
+    "configuration", "configuration_changes", "configuration_key", "load_config", "quick_config",
+    "tests_fingerprint",
 ]
 
 ENV_CONFIG = "HW4_GRADER_CONFIG"
@@ -40,7 +51,6 @@ ENV_SECRET = "HW4_GRADER_SECRET"
 DEV_SECRET = "hw4-development-secret-public-do-not-use-for-grading"
 # Bumped whenever a check changes, so that resumed batches regrade what was graded before.
 GRADER_VERSION = "1"
-
 
 
 @dataclass(frozen=True)
@@ -65,7 +75,8 @@ class GradingConfig:
         Also test on the scene behind the kit's published data/ (students have seen it, so it is
         never the only scene of a check).
     official_data : Path or None
-        Folder of the official course data (temple/..., q6/...); used when it exists.
+        Folder of the official course data (temple/..., q6/...); used when given and it holds
+        the temple files.  None (the default): the official data is not used.
     match_points : int
         Points of image 1 matched per scene in Q4.
     ba_points : int
@@ -115,9 +126,9 @@ class GradingConfig:
         return int.from_bytes(digest[:8], "big") >> 1
 
     def official_dir(self) -> Path | None:
-        """The official data folder when it holds the temple files, else None."""
-        path = self.official_data if self.official_data is not None else course_data_dir()
-        return path if path is not None and (Path(path) / "temple" / "some_corresp.npz").is_file() else None
+        """The official data folder when one was asked for and it holds the temple files, else None."""
+        path = self.official_data
+        return Path(path) if path is not None and (Path(path) / "temple" / "some_corresp.npz").is_file() else None
 
     def to_dict(self) -> dict:
         """The settings as a config file's JSON object (``load_config`` reads it back; secret included)."""
@@ -139,13 +150,18 @@ _FILE_KEYS = {"secret", "temples", "use_default_data", "official_data", "match_p
               "car_times", "time_scale", "load_timeout", "comment"}
 
 
-def load_config(path: str | os.PathLike | None = None, *, environ: dict | None = None) -> GradingConfig:
+def load_config(path: str | os.PathLike | None = None, *, environ: dict | None = None,
+                official_data: str | os.PathLike | None = None) -> GradingConfig:
     """The grading settings: from ``path``, else ``$HW4_GRADER_CONFIG``, else the defaults.
+
+    ``official_data``: the official course data folder to grade with too (overrides the file's
+    and ``$HW4_COURSE_DATA``); it must hold ``temple/some_corresp.npz``.
 
     Raises
     ------
     ValueError
-        When the file is not a JSON object of the keys above, or a value is out of range.
+        When the file is not a JSON object of the keys above, or a value is out of range, or the
+        official data asked for is not a course data folder.
     FileNotFoundError
         When a named config file does not exist.
     """
@@ -172,6 +188,17 @@ def load_config(path: str | os.PathLike | None = None, *, environ: dict | None =
             values["official_data"] = Path(values["official_data"])
     if env.get(ENV_SECRET):
         values["secret"] = env[ENV_SECRET]
+    if official_data is not None:
+        values["official_data"] = Path(official_data)
+    elif "official_data" not in values and env.get(ENV_COURSE_DATA):
+        values["official_data"] = Path(env[ENV_COURSE_DATA])
+    folder = values.get("official_data")
+    if folder is not None:
+        folder = Path(folder).expanduser().resolve()
+        if not (folder / "temple" / "some_corresp.npz").is_file():
+            raise ValueError(f"official_data: expected a course data folder holding temple/some_corresp.npz, "
+                             f"got {folder}")
+        values["official_data"] = folder
     return GradingConfig(**values, source=source)
 
 
@@ -186,3 +213,149 @@ def quick_config(**changes) -> GradingConfig:
     base = GradingConfig(temples=(TempleSpec(256, 192, 0.5), TempleSpec(320, 240, 0.6)),
                          match_points=24, ba_points=12, car_times=2, time_scale=0.5, load_timeout=60.0)
     return dataclasses.replace(base, **changes)
+
+
+# ------------------------------------------------------------------------------------------------
+# what every result records about its grading
+
+
+def kit_version() -> str:
+    """The kit's version (its installed distribution's, else pyproject.toml's), or "unknown"."""
+    try:
+        from importlib.metadata import version
+
+        return version("hw4-twoview-kit")
+    except Exception:  # noqa: BLE001 - not installed: read the source tree
+        pass
+    try:
+        import re
+
+        text = (KIT_ROOT / "pyproject.toml").read_text(encoding="utf-8")
+        found = re.search(r'^version\s*=\s*"([^"]+)"', text, re.MULTILINE)
+        return found.group(1) if found else "unknown"
+    except OSError:
+        return "unknown"
+
+
+def _files_digest(paths) -> tuple[str, dict]:
+    """(digest of all, {name: digest of each}) of the files ``paths`` as (name, Path) pairs."""
+    every = hashlib.sha256()
+    each = {}
+    for name, p in sorted(paths):
+        d = hashlib.sha256(Path(p).read_bytes()).hexdigest()[:16]
+        each[name] = d
+        every.update(f"{name}\0{d}\n".encode())
+    return every.hexdigest()[:16], each
+
+
+def _tree(root: Path, pattern: str, label: str) -> list[tuple[str, Path]]:
+    return [(f"{label}/{p.relative_to(root).as_posix()}", p) for p in sorted(root.glob(pattern))
+            if p.is_file() and "__pycache__" not in p.parts]
+
+
+def tests_fingerprint(extra_tests=()) -> dict:
+    """What the checks are made of: digests of the hidden tests (``autograder/hidden``), of the
+    judging code and thresholds they call (``autograder/tests``, ``judging``) and of an
+    instructor's extra test files or folders.
+
+    Returns ``{"digest": all of them, "hidden": ..., "judging": ..., "extra": ... or None,
+    "files": {name: digest}}`` (names like ``hidden/test_pose.py``, ``extra/test_x.py``).
+    """
+    auto = Path(__file__).resolve().parent
+    hidden = _tree(auto / "hidden", "*.py", "hidden") + _tree(auto / "hidden", "*.ini", "hidden")
+    judging = _tree(auto / "tests", "*.py", "autograder-tests") + _tree(KIT_ROOT / "judging", "**/*.py", "judging")
+    extra: list[tuple[str, Path]] = []
+    for item in extra_tests or ():
+        item = Path(item)
+        if item.is_dir():
+            extra += _tree(item, "**/*.py", f"extra/{item.name}")
+        elif item.is_file():
+            extra.append((f"extra/{item.name}", item))
+    h, h_files = _files_digest(hidden)
+    j, j_files = _files_digest(judging)
+    e, e_files = _files_digest(extra) if extra else (None, {})
+    every = hashlib.sha256(f"{h}|{j}|{e}".encode()).hexdigest()[:16]
+    return {"digest": every, "hidden": h, "judging": j, "extra": e, "files": {**h_files, **j_files, **e_files}}
+
+
+def _data_digest(folder: Path) -> str:
+    return _files_digest(_tree(folder, "**/*", "data"))[0]
+
+
+def configuration(config: GradingConfig, *, extra_tests=(), isolation: str | None = None,
+                  tests: dict | None = None) -> dict:
+    """What a result records about how it was graded (plain JSON; the secret only as a fingerprint).
+
+    Keys: ``grader_version``, ``kit_version``, ``secret_fingerprint``, ``dev_secret``, ``data``
+    (``default_data``: bool, ``official_data``: path or None, ``official_digest``), ``settings``
+    (every other setting), ``tests`` (``tests_fingerprint``; pass ``tests`` to reuse one),
+    ``isolation`` (the sandbox level, or None before a sandbox ran), ``key``
+    (``configuration_key`` of the rest).
+    """
+    official = config.official_dir()
+    settings = config.to_dict()
+    for name in ("secret", "official_data", "use_default_data"):
+        settings.pop(name, None)
+    record = {
+        "grader_version": GRADER_VERSION,
+        "kit_version": kit_version(),
+        "secret_fingerprint": hashlib.sha256(f"hw4-secret\0{config.secret}".encode()).hexdigest()[:12],
+        "dev_secret": config.is_dev,
+        "data": {"default_data": bool(config.use_default_data),
+                 "official_data": str(official) if official is not None else None,
+                 "official_digest": _data_digest(official) if official is not None else None},
+        "settings": settings,
+        "tests": tests if tests is not None else tests_fingerprint(extra_tests),
+        "isolation": isolation,
+    }
+    record["key"] = configuration_key(record)
+    return record
+
+
+def configuration_key(record: dict) -> str:
+    """A digest of the parts of a configuration record that change grades (not the isolation
+    level, the data folder's path or the per-file digests): equal keys may share a gradebook."""
+    data = record.get("data") or {}
+    tests = record.get("tests") or {}
+    core_parts = {
+        "grader_version": record.get("grader_version"), "kit_version": record.get("kit_version"),
+        "secret": record.get("secret_fingerprint"), "settings": record.get("settings"),
+        "default_data": data.get("default_data"), "official": data.get("official_digest"),
+        "tests": tests.get("digest"),
+    }
+    return hashlib.sha256(json.dumps(core_parts, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def configuration_changes(old: dict | None, new: dict | None) -> list[str]:
+    """Sentences saying how configuration record ``new`` differs from ``old`` (empty: the same)."""
+    if not old or not new:
+        return [] if old == new else ["the earlier result records no configuration"]
+    out = []
+    if old.get("grader_version") != new.get("grader_version"):
+        out.append(f"grader version {old.get('grader_version')} -> {new.get('grader_version')}")
+    if old.get("kit_version") != new.get("kit_version"):
+        out.append(f"kit version {old.get('kit_version')} -> {new.get('kit_version')}")
+    if old.get("secret_fingerprint") != new.get("secret_fingerprint"):
+        dev = {True: " (development secret)", False: ""}
+        out.append(f"secret {old.get('secret_fingerprint')}{dev[bool(old.get('dev_secret'))]} -> "
+                   f"{new.get('secret_fingerprint')}{dev[bool(new.get('dev_secret'))]} (other hidden scenes)")
+    od, nd = old.get("data") or {}, new.get("data") or {}
+    if od.get("default_data") != nd.get("default_data"):
+        out.append(f"default data {'used' if od.get('default_data') else 'not used'} -> "
+                   f"{'used' if nd.get('default_data') else 'not used'}")
+    if od.get("official_digest") != nd.get("official_digest"):
+        out.append(f"official data {od.get('official_data') or 'not used'} -> {nd.get('official_data') or 'not used'}")
+    os_, ns = old.get("settings") or {}, new.get("settings") or {}
+    for name in sorted(set(os_) | set(ns)):
+        if os_.get(name) != ns.get(name):
+            out.append(f"setting {name} {os_.get(name)!r} -> {ns.get(name)!r}")
+    ot, nt = old.get("tests") or {}, new.get("tests") or {}
+    if ot.get("digest") != nt.get("digest"):
+        of, nf = ot.get("files") or {}, nt.get("files") or {}
+        changed = sorted(n for n in set(of) | set(nf) if of.get(n) != nf.get(n))
+        if changed:
+            shown = ", ".join(changed[:8]) + (f" and {len(changed) - 8} more" if len(changed) > 8 else "")
+            out.append(f"test files changed: {shown}")
+        else:
+            out.append("the hidden tests changed")
+    return out

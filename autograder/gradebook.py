@@ -1,23 +1,33 @@
-"""The class's gradebook: ``grades.csv`` from the batch records of an output folder."""
+"""The class's gradebook: ``grades.csv`` and ``summary.md`` from the batch records of an output folder.
+
+``grades.csv`` keeps the columns an import expects (``student_id, total, Q2, ...``); how the
+folder was graded (configuration, a development secret, isolation levels, failures) is in
+``summary.md`` and ``configuration.json`` beside it.
+"""
 
 from __future__ import annotations
 
 import csv
+import io
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.text import points
+from core.text import points, write_atomic
 
 from .results import autograded_question_ids, csv_header
 
-__all__ = ["BatchRecord", "earlier_records", "write_grades_csv"]
+__all__ = ["BatchRecord", "earlier_records", "read_state", "write_grades_csv", "write_summary"]
 
 
 @dataclass(frozen=True)
 class BatchRecord:
-    """One submission of a batch: where its results are, its scores, and whether it was graded now."""
+    """One submission of a batch: where its results are, its scores, and whether it was graded now.
+
+    configuration_key: ``autograder.config.configuration_key`` of the grading (None: not recorded);
+    isolation: the sandbox level it ran at (None when no sandbox ran).
+    """
 
     name: str
     path: Path
@@ -27,32 +37,87 @@ class BatchRecord:
     failure: str | None
     skipped: bool
     seconds: float
+    configuration_key: str | None = None
+    isolation: str | None = None
 
 
 def write_grades_csv(path: Path, records: Sequence) -> Path:
-    """``student_id, total, <one column per autograded question>``, one line per record."""
+    """``student_id, total, <one column per autograded question>``, one line per record (atomic)."""
     ids = autograded_question_ids()
-    with open(path, "w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(csv_header(ids))
-        for r in records:
-            scores = [0.0 if r.failure else float(r.scores.get(q, 0.0)) for q in ids]
-            writer.writerow([r.name, points(0.0 if r.failure else r.score)] + [points(s) for s in scores])
-    return path
+    buf = io.StringIO(newline="")
+    writer = csv.writer(buf)
+    writer.writerow(csv_header(ids))
+    for r in records:
+        scores = [0.0 if r.failure else float(r.scores.get(q, 0.0)) for q in ids]
+        writer.writerow([r.name, points(0.0 if r.failure else r.score)] + [points(s) for s in scores])
+    return write_atomic(path, buf.getvalue())
 
 
-def earlier_records(out: Path, exclude: set[str]) -> list:
-    """Submissions graded into ``out`` by earlier batches, so that grades.csv lists the whole class."""
+def read_state(folder: Path) -> dict | None:
+    """The ``grading.json`` of a submission's folder, or None when missing or unreadable."""
+    try:
+        state = json.loads((Path(folder) / "grading.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return state if isinstance(state, dict) else None
+
+
+def record_of(folder: Path, state: dict) -> BatchRecord:
+    """The BatchRecord of a finished ``grading.json`` (KeyError/TypeError/ValueError when malformed)."""
+    iso = state.get("isolation")
+    return BatchRecord(folder.name, Path(state.get("path", "")), folder, float(state["score"]),
+                       {k: float(v) for k, v in dict(state["scores"]).items()}, state.get("failure"), True, 0.0,
+                       state.get("configuration_key"), iso.get("level") if isinstance(iso, dict) else None)
+
+
+def earlier_records(out: Path, exclude: set[str], key: str | None = None) -> list:
+    """Submissions graded into ``out`` by earlier batches, so that grades.csv lists the whole class.
+
+    With ``key``, only those graded with that configuration key.
+    """
     found = []
-    for state_file in sorted(out.glob("*/grading.json")):
+    for state_file in sorted(Path(out).glob("*/grading.json")):
         name = state_file.parent.name
         if name in exclude:
             continue
+        state = read_state(state_file.parent)
+        if state is None or (key is not None and state.get("configuration_key") != key):
+            continue
         try:
-            state = json.loads(state_file.read_text(encoding="utf-8"))
-            found.append(BatchRecord(name, Path(state.get("path", "")), state_file.parent, float(state["score"]),
-                                     {k: float(v) for k, v in dict(state["scores"]).items()}, state.get("failure"),
-                                     True, 0.0))
-        except (OSError, ValueError, KeyError, TypeError):
+            found.append(record_of(state_file.parent, state))
+        except (ValueError, KeyError, TypeError):
             continue
     return found
+
+
+def write_summary(path: Path, records: Sequence, configuration: dict, *, cancelled: Sequence[str] = (),
+                  note: str = "") -> Path:
+    """``summary.md``: the configuration, a warning for a development secret, counts, failures."""
+    c = configuration
+    data = c.get("data") or {}
+    levels = sorted({r.isolation for r in records if r.isolation})
+    failed = [r for r in records if r.failure]
+    lines = ["# Grading summary", ""]
+    if c.get("dev_secret"):
+        lines += ["**WARNING: graded with the public DEVELOPMENT secret** (hidden scenes anyone can make): "
+                  "these grades are not for publishing. Set HW4_GRADER_SECRET or HW4_GRADER_CONFIG.", ""]
+    if len(levels) > 1:
+        lines += [f"**Warning: submissions ran at different isolation levels: {', '.join(levels)}.**", ""]
+    if note:
+        lines += [note, ""]
+    lines += [
+        f"- submissions: {len(records)} ({sum(not r.skipped for r in records)} graded by the last batch, "
+        f"{len(failed)} failed, {len(cancelled)} cancelled and not recorded)",
+        f"- configuration: {c.get('key')} (grader {c.get('grader_version')}, kit {c.get('kit_version')})",
+        f"- secret fingerprint: {c.get('secret_fingerprint')}" + (" (development secret)" if c.get("dev_secret") else ""),
+        f"- data: {'default data' if data.get('default_data') else 'no default data'}"
+        + (f" + official data {data.get('official_data')}" if data.get("official_data") else ", no official data"),
+        f"- hidden tests: {(c.get('tests') or {}).get('digest')}"
+        + (" (with extra tests)" if (c.get("tests") or {}).get("extra") else ""),
+        f"- isolation: {', '.join(levels) or 'none ran'}",
+    ]
+    if failed:
+        lines += ["", "## Could not be graded", ""] + [f"- {r.name}: {r.failure}" for r in failed]
+    if cancelled:
+        lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {n}" for n in cancelled]
+    return write_atomic(path, "\n".join(lines) + "\n")

@@ -174,14 +174,15 @@ class SubmissionResult:
     notes: tuple[str, ...] = ()
     failure: str | None = None
     execution_time: float | None = None
+    configuration: dict | None = None
 
     @classmethod
     def failed(cls, reason: str, *, student_id: str | None = None, isolation: dict | None = None,
-               execution_time: float | None = None) -> SubmissionResult:
+               execution_time: float | None = None, configuration: dict | None = None) -> SubmissionResult:
         """A zero for a submission that could not be graded, with ``reason`` for the student."""
         if not isinstance(reason, str) or not reason.strip():
             raise ValueError(f"reason: expected a non-empty str, got {reason!r}")
-        return cls((), student_id, isolation, (), clean_feedback(reason), execution_time)
+        return cls((), student_id, isolation, (), clean_feedback(reason), execution_time, configuration)
 
     @property
     def score(self) -> float:
@@ -202,6 +203,7 @@ class SubmissionResult:
                            "notes": list(q.notes), "tests": [asdict(t) for t in q.tests]} for q in self.questions],
             "student_id": self.student_id, "isolation": self.isolation, "notes": list(self.notes),
             "failure": self.failure, "execution_time": self.execution_time,
+            "configuration": self.configuration,
         }
 
     @classmethod
@@ -212,7 +214,7 @@ class SubmissionResult:
                            bool(q["extra_credit"]), bool(q["by_hand"]), tuple(q["notes"]))
             for q in data["questions"])
         return cls(questions, data.get("student_id"), data.get("isolation"), tuple(data.get("notes", ())),
-                   data.get("failure"), data.get("execution_time"))
+                   data.get("failure"), data.get("execution_time"), data.get("configuration"))
 
     # -- Gradescope -------------------------------------------------------------------------
 
@@ -225,7 +227,8 @@ class SubmissionResult:
             "visibility": "visible",
             "stdout_visibility": "hidden",  # the grader's log is for staff only
             "tests": [],
-            "extra_data": {"isolation": self.isolation, "failure": self.failure},
+            "extra_data": {"isolation": self.isolation, "failure": self.failure,
+                           "configuration": _public_configuration(self.configuration)},
         }
         if self.execution_time is not None:
             out["execution_time"] = round(float(self.execution_time), 3)
@@ -303,6 +306,14 @@ class SubmissionResult:
             line = f"Sandbox: {iso.get('level')}, uid {iso.get('uid')}, network {network}, {hidden_count} hidden paths."
             parts += ["", "---", line]
             parts += [f"- {n}" for n in iso.get("notes") or ()]
+        if audience == "staff" and self.configuration:
+            c = self.configuration
+            data = c.get("data") or {}
+            parts += [f"Graded by grader {c.get('grader_version')} (kit {c.get('kit_version')}), secret "
+                      f"{c.get('secret_fingerprint')}{' (DEVELOPMENT secret)' if c.get('dev_secret') else ''}, data: "
+                      f"{'default' if data.get('default_data') else 'no default'}"
+                      f"{' + official ' + str(data.get('official_data')) if data.get('official_data') else ''}, "
+                      f"tests {(c.get('tests') or {}).get('digest')}, configuration {c.get('key')}."]
         return "\n".join(parts).rstrip() + "\n"
 
     # -- gradebook --------------------------------------------------------------------------
@@ -336,6 +347,16 @@ def write_csv(path: str | Path, results: Iterable[SubmissionResult],
         for r in results:
             writer.writerow(r.csv_row(question_ids))
     return path
+
+
+def _public_configuration(record: dict | None) -> dict | None:
+    """The configuration record without the per-file digests (results.json stays small)."""
+    if not record:
+        return None
+    out = dict(record)
+    if isinstance(out.get("tests"), dict):
+        out["tests"] = {k: v for k, v in out["tests"].items() if k != "files"}
+    return out
 
 
 def _cell(text: str) -> str:
