@@ -218,8 +218,25 @@ class SubmissionResult:
 
     # -- Gradescope -------------------------------------------------------------------------
 
-    def to_gradescope(self) -> dict:
-        """The dict of Gradescope's results.json (all numbers finite, JSON-serialisable)."""
+    def to_gradescope(self, visibility: dict | None = None) -> dict:
+        """The dict of Gradescope's results.json (all numbers finite, JSON-serialisable).
+
+        ``visibility=None``: one test per check, with its points (what the CLI's results.json
+        and its readers use).  A dict ``{"scores": V, "checks": V}`` (V one of ``VISIBILITIES``;
+        a missing key takes the default ``{"scores": "visible", "checks": "after_published"}``)
+        gives the layout for Gradescope itself: one test per question with its points (group
+        "scores"), then one test per check with its feedback and no points (group "checks"; a
+        check's own visibility wins when stricter), and a summary giving the base points and the
+        extra credit apart.  The total score is the top-level "score" (extra credit included).
+        """
+        layout = None
+        if visibility is not None:
+            layout = {"scores": "visible", "checks": "after_published"}
+            unknown = set(visibility) - set(layout)
+            bad = {k: v for k, v in visibility.items() if v not in VISIBILITIES}
+            if unknown or bad:
+                raise ValueError(f"visibility: expected {{'scores'|'checks': one of {VISIBILITIES}}}, got {visibility!r}")
+            layout.update(visibility)
         out: dict = {
             "score": round(self.score, 6),
             "output": self._summary_markdown(),
@@ -227,24 +244,62 @@ class SubmissionResult:
             "visibility": "visible",
             "stdout_visibility": "hidden",  # the grader's log is for staff only
             "tests": [],
-            "extra_data": {"isolation": self.isolation, "failure": self.failure,
-                           "configuration": _public_configuration(self.configuration)},
+            "extra_data": {"isolation": self.isolation, "failure": self.failure},
         }
         if self.execution_time is not None:
             out["execution_time"] = round(float(self.execution_time), 3)
         if self.failure:
             return out
+        if layout is None:
+            for q in self.questions:
+                for k, t in enumerate(q.tests, start=1):
+                    text = "\n".join(list(q.notes if k == 1 else ()) + ([t.feedback] if t.feedback else []))
+                    out["tests"].append({
+                        "name": f"{q.id} {t.name}" + (" (extra credit)" if q.extra_credit else ""),
+                        "number": f"{q.id[1:]}.{k}",
+                        "score": round(t.score, 6),
+                        "max_score": round(t.max_score, 6),
+                        "status": "passed" if t.passed else "failed",
+                        "output": text,
+                        "visibility": t.visibility,
+                    })
+            return out
+        order = {v: k for k, v in enumerate(("visible", "after_due_date", "after_published", "hidden"))}
+        base = [q for q in self.questions if not q.extra_credit]
+        extra = [q for q in self.questions if q.extra_credit]
+        lines = [f"**Base points: {points(sum(q.score for q in base))} / {points(sum(q.max_score for q in base))}**"]
+        if extra:
+            lines.append(f"**Extra credit: {points(sum(q.score for q in extra))} / "
+                         f"{points(sum(q.max_score for q in extra))}** ({', '.join(q.id for q in extra)}, "
+                         f"added on top: score {points(self.score)})")
+        if layout["checks"] != "visible":
+            when = {"after_due_date": "after the due date", "after_published": "when the course staff publish the grades",
+                    "hidden": "to the course staff only"}[layout["checks"]]
+            lines.append(f"The feedback of each check is shown {when}.")
+        if self.notes:
+            lines += ["", "Notes on your files:"] + [f"- {n}" for n in self.notes]
+        out["output"] = "\n".join(lines)
+        for q in self.questions:
+            passed = sum(1 for t in q.tests if t.passed)
+            out["tests"].append({
+                "name": f"{q.id} {q.title}" + (" (extra credit)" if q.extra_credit else ""),
+                "number": q.id[1:],
+                "score": round(q.score, 6),
+                "max_score": round(q.max_score, 6),
+                "status": "passed" if q.score >= q.max_score - _TOL else "failed",
+                "output": f"{passed} of {len(q.tests)} checks passed.",
+                "visibility": layout["scores"],
+            })
         for q in self.questions:
             for k, t in enumerate(q.tests, start=1):
                 text = "\n".join(list(q.notes if k == 1 else ()) + ([t.feedback] if t.feedback else []))
+                shown = max(layout["checks"], t.visibility, key=order.__getitem__)
                 out["tests"].append({
-                    "name": f"{q.id} {t.name}" + (" (extra credit)" if q.extra_credit else ""),
+                    "name": f"{q.id} check: {t.name} ({points(t.score)} / {points(t.max_score)})",
                     "number": f"{q.id[1:]}.{k}",
-                    "score": round(t.score, 6),
-                    "max_score": round(t.max_score, 6),
                     "status": "passed" if t.passed else "failed",
                     "output": text,
-                    "visibility": t.visibility,
+                    "visibility": shown,
                 })
         return out
 
