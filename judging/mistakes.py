@@ -395,6 +395,12 @@ def _dehomogenising_factors(w, C1, pts1, C2, pts2) -> np.ndarray:
         return num / den
 
 
+def _differ(factors) -> bool:
+    """The factors (N,) differ from point to point (a common factor, e.g. -1, is another mistake)."""
+    f = np.asarray(factors, float)
+    return len(f) > 1 and float(np.ptp(f)) > 1e-3 * float(np.max(np.abs(f)))
+
+
 def w_not_divided(w, X=None, cameras=None, rtol: float = 1e-4) -> Mistake | None:
     """Mistake when each point of w (N, 3) is a right point times its own factor (w = X[:3] of a
     homogeneous solution X never divided by X[3]).
@@ -402,7 +408,8 @@ def w_not_divided(w, X=None, cameras=None, rtol: float = 1e-4) -> Mistake | None
     X : (N, 3) the true points (noise-free matches): w_i is then parallel to X_i.
     cameras : (C1, pts1, C2, pts2) instead (noisy matches): w_i / h_i, with h_i fitted to the
         matches, reprojects far better than w_i.
-    Not reported when every factor is 1 (to 1e-3): w is then not the problem.
+    Not reported when the factors are all equal (to 1e-3): one factor for all the points (1, or
+    -1 for mirrored points) is not this mistake.
     """
     w = np.asarray(w, float)
     if w.ndim != 2 or w.shape[1] != 3 or len(w) == 0 or not np.all(np.isfinite(w)):
@@ -414,7 +421,7 @@ def w_not_divided(w, X=None, cameras=None, rtol: float = 1e-4) -> Mistake | None
         with np.errstate(all="ignore"):
             c = np.sum(w * X, axis=1) / np.sum(X * X, axis=1)
             off = np.linalg.norm(w - c[:, None] * X, axis=1) / np.maximum(np.linalg.norm(w, axis=1), 1e-300)
-        if np.all(np.isfinite(c)) and np.all(off <= rtol) and np.max(np.abs(c - 1)) > 1e-3:
+        if np.all(np.isfinite(c)) and np.all(off <= rtol) and _differ(c):
             return mistake("w_not_divided", f"every row of w is the true point times a factor between "
                                             f"{np.min(c):.2g} and {np.max(c):.2g}")
         return None
@@ -422,7 +429,7 @@ def w_not_divided(w, X=None, cameras=None, rtol: float = 1e-4) -> Mistake | None
         return None
     C1, pts1, C2, pts2 = cameras
     h = _dehomogenising_factors(w, C1, pts1, C2, pts2)
-    if not np.all(np.isfinite(h)) or np.any(h == 0) or np.max(np.abs(h - 1)) <= 1e-3:
+    if not np.all(np.isfinite(h)) or np.any(h == 0) or not _differ(h):
         return None
 
     def total(v):

@@ -262,13 +262,16 @@ def _cell_label(filename: str) -> str:
 
 def student_frame(tb) -> str:
     """'<function>, <cell or file>, line L' of the innermost traceback frame in student code, or ''."""
-    found = None
+    found, function = None, None
     while tb is not None:
         code = tb.tb_frame.f_code
         if _is_student_file(code.co_filename):
-            found = (code.co_name, code.co_filename, tb.tb_lineno)
+            found = (code.co_filename, tb.tb_lineno)
+            # A comprehension or lambda is named after the function around it.
+            if not code.co_name.startswith("<") or function is None:
+                function = code.co_name
         tb = tb.tb_next
     if found is None:
         return ""
-    name, filename, line = found
+    (filename, line), name = found, function
     return f"{name}, {_cell_label(filename)}, line {line}"

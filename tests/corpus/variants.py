@@ -264,3 +264,117 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
     """Uses the detections whose confidence is >= Thres (one too many)."""
     return _key_MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres - 0.5)
 '''
+
+# --------------------------------------------------------------------------- self-check variants (issue 11)
+# Cells as a student would write them in the notebook, where ``refineF`` is the name imported
+# by the notebook's import cell: the self-checks must name each mistake also when refineF is
+# called (it polishes a transposed F into a near miss and returns rank 2 whatever it is given),
+# and pass each valid method.  ``eightpoint_cell`` writes one; the constants below are the ones
+# the tests and the grading tests use by name.
+
+_ROW_RIGHT = "x2 * x1, x2 * y1, x2, y2 * x1, y2 * y1, y2, x1, y1, np.ones_like(x1)"
+_ROW_TRANSPOSED = "x1 * x2, x1 * y2, x1, y1 * x2, y1 * y2, y1, x2, y2, np.ones_like(x1)"
+
+
+def eightpoint_cell(mistake=None, refine=False, solver="svd", refine_after_unscaling=False):
+    """The text of a notebook cell defining ``eightpoint(pts1, pts2, M)`` (1/M scaling) with one
+    of the catalogue's Q2 mistakes (a code of judging.mistakes.KNOWN_MISTAKES, or None).
+
+    refine : call ``refineF`` (before unscaling, on the scaled F and points, as the handout
+        suggests; or after it, on the pixel F and points, which the FAQ allows too).
+    solver : "svd" (right singular vector) or "eigh" (eigenvector of A^T A): both are right.
+    """
+    row = _ROW_TRANSPOSED if mistake == "f_transposed" else _ROW_RIGHT
+    coords = ("y1, x1 = p1.T\n    y2, x2 = p2.T" if mistake == "xy_swapped" else "x1, y1 = p1.T\n    x2, y2 = p2.T")
+    solve = ("F = np.linalg.svd(A)[2][-1].reshape(3, 3)" if solver == "svd"
+             else "F = np.linalg.eigh(A.T @ A)[1][:, 0].reshape(3, 3)")
+    rank2 = "" if mistake == "f_rank3" else "U, S, Vt = np.linalg.svd(F)\n    F = U @ np.diag([S[0], S[1], 0.0]) @ Vt"
+    unscale = {"f_not_unscaled": "", "f_unscaled_wrong_way": "S = np.diag([M, M, 1.0])\n    F = S @ F @ S"}.get(
+        mistake, "F = T.T @ F @ T")
+    if mistake == "uint16_wraparound":
+        # Products of the raw coordinates in their own dtype (uint16 wraps around), columns scaled after.
+        build = ("x1, y1 = pts1[:, 0], pts1[:, 1]\n    x2, y2 = pts2[:, 0], pts2[:, 1]\n"
+                 f"    A = np.stack([{row.replace('np.ones_like(x1)', 'np.ones(len(x1))')}], axis=1)\n"
+                 "    A = A * np.array([1 / M**2, 1 / M**2, 1 / M, 1 / M**2, 1 / M**2, 1 / M, 1 / M, 1 / M, 1.0])\n"
+                 "    p1 = np.asarray(pts1, dtype=float) / M\n    p2 = np.asarray(pts2, dtype=float) / M")
+    else:
+        build = ("p1 = np.asarray(pts1, dtype=float) / M\n    p2 = np.asarray(pts2, dtype=float) / M\n"
+                 f"    {coords}\n    A = np.stack([{row}], axis=1)")
+    before = "F = refineF(F, p1, p2)" if refine and not refine_after_unscaling else ""
+    after = "F = refineF(F, pts1, pts2)" if refine and refine_after_unscaling else ""
+    body = "\n    ".join(line for line in [build, solve, rank2, before, "T = np.diag([1 / M, 1 / M, 1.0])", unscale,
+                                           after, "return F / np.linalg.norm(F)"] if line)
+    return f"import numpy as np\n\n\ndef eightpoint(pts1, pts2, M):\n    {body}\n"
+
+
+# Mistakes that refineF hides (the FAQ's "comment out the call to refineF").
+EIGHTPOINT_TRANSPOSED_REFINED = eightpoint_cell("f_transposed", refine=True)
+EIGHTPOINT_RANK3_REFINED = eightpoint_cell("f_rank3", refine=True)
+# Valid: refineF after unscaling (FAQ Q2.1), and the null vector from eigh instead of the SVD.
+EIGHTPOINT_REFINED_AFTER_UNSCALING = eightpoint_cell(refine=True, refine_after_unscaling=True)
+EIGHTPOINT_EIGH_REFINED = eightpoint_cell(refine=True, solver="eigh")
+
+_TRIANGULATE = '''\
+import numpy as np
+
+
+def triangulate(C1, pts1, C2, pts2):
+    """Linear triangulation, {what}."""
+    p1 = np.asarray(pts1, dtype=float)
+    p2 = np.asarray(pts2, dtype=float)
+    w = np.zeros((len(p1), 3))
+    points = np.zeros((len(p1), 3))
+    for i, ((x1, y1), (x2, y2)) in enumerate(zip(p1, p2)):
+        A = np.array([x1 * C1[2] - C1[0], y1 * C1[2] - C1[1], x2 * C2[2] - C2[0], y2 * C2[2] - C2[1]])
+        X = np.linalg.svd(A)[2][-1]
+        points[i] = X[:3] / X[3]
+        w[i] = {row}
+    hom = np.column_stack([{err_of}, np.ones(len(w))])
+    err = 0.0
+    for C, p in ((C1, p1), (C2, p2)):
+        h = hom @ C.T
+        err += np.sum((p - h[:, :2] / h[:, 2:]) ** 2)
+    return w, err
+'''
+# w = X[:3] of the homogeneous solution; err computed from the divided points (as meant).
+TRIANGULATE_W_NOT_DIVIDED = _TRIANGULATE.format(what="w returned undivided, err of the divided points",
+                                                row="X[:3]", err_of="points")
+# The same, err computed from the w returned (consistent with it).
+TRIANGULATE_W_NOT_DIVIDED_OWN_ERR = _TRIANGULATE.format(what="w returned undivided, err of that w",
+                                                        row="X[:3]", err_of="w")
+# The points mirrored through camera 1's centre (a sign lost): behind both cameras.
+TRIANGULATE_POINTS_MIRRORED = _TRIANGULATE.format(what="every point mirrored (its sign lost)",
+                                                  row="-X[:3] / X[3]", err_of="w")
+
+# A matcher with another window score (sum of absolute differences, no weighting) and its own
+# window and search range: valid.
+EPIPOLAR_SAD = '''\
+import numpy as np
+
+
+def epipolarCorrespondence(im1, im2, F, x1, y1):
+    """Along the epipolar line, the pixel whose 9 x 9 window differs least (sum of absolute differences)."""
+    im1 = np.asarray(im1, dtype=float)
+    im2 = np.asarray(im2, dtype=float)
+    H, W = im2.shape[:2]
+    h = 4
+    a, b, c = F @ np.array([x1, y1, 1.0])
+    if abs(a) >= abs(b):  # closer to vertical: one candidate per row
+        ys = np.arange(y1 - 30, y1 + 31)
+        xs = np.rint(-(b * ys + c) / a).astype(int)
+    else:
+        xs = np.arange(x1 - 30, x1 + 31)
+        ys = np.rint(-(a * xs + c) / b).astype(int)
+    keep = (xs >= h) & (xs < W - h) & (ys >= h) & (ys < H - h)
+    ys, xs = ys[keep], xs[keep]
+    r0, c0 = min(max(y1, h), H - 1 - h), min(max(x1, h), W - 1 - h)
+    ref = im1[r0 - h:r0 + h + 1, c0 - h:c0 + h + 1]
+    scores = [np.abs(im2[y - h:y + h + 1, x - h:x + h + 1] - ref).sum() for x, y in zip(xs, ys)]
+    k = int(np.argmin(scores))
+    return int(xs[k]), int(ys[k])
+'''
+
+# The classic indexing slip: im[x, y] instead of im[y, x]; near the border the windows differ
+# in shape and numpy raises (the self-check must point to this cell's line).
+EPIPOLAR_INDEXED_XY = EPIPOLAR_SAD.replace(
+    "ref = im1[r0 - h:r0 + h + 1, c0 - h:c0 + h + 1]", "ref = im1[c0 - h:c0 + h + 1, r0 - h:r0 + h + 1]")
