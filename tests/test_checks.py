@@ -486,3 +486,13 @@ def test_checks_never_import_the_solutions():
     for path in pathlib.Path(__file__).resolve().parents[1].joinpath("starter", "checks").glob("*.py"):
         text = path.read_text()
         assert "import solutions" not in text and "from solutions" not in text, path.name
+
+
+def test_checks_never_use_opencv():
+    """The self-checks say the same with and without OpenCV (Colab has it, a local install may not)."""
+    import pathlib
+    import re
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    for path in [*root.joinpath("starter", "checks").glob("*.py"), *root.joinpath("judging").glob("*.py")]:
+        assert not re.search(r"\bcv2\b", path.read_text()), path.name
