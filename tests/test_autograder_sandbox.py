@@ -363,23 +363,32 @@ def test_user_namespaces_are_refused_to_a_root_grader():
         Sandbox(KIT_ROOT, isolation="user-namespaces", limits=LIMITS)
 
 
-@pytest.mark.parametrize("level", ["user-namespaces", "basic"])
+@pytest.mark.parametrize("level", ["user-namespaces", "uid", "basic"])
 def test_fallback_levels_run_jobs_and_say_what_they_are(level):
     if level == "user-namespaces" and os.geteuid() == 0:
         pytest.skip("refused to a root grader (see the test above); runs when the grader is not root")
+    weak = level in ("user-namespaces", "basic")
     try:
-        sandbox = Sandbox(KIT_ROOT, isolation=level, limits=LIMITS)
+        sandbox = Sandbox(KIT_ROOT, isolation=level, limits=LIMITS, allow_weak=weak)
     except RuntimeError as exc:
         pytest.skip(str(exc))
     with sandbox:
         r = run(sandbox, "def f(x):\n    return x * 2\n", Call("f", "f", (np.arange(3),)))
         assert np.array_equal(r["f"].value, [0, 2, 4])
         iso = sandbox.isolation
-        assert iso.level == level
+        assert iso.level == level and iso.weak == weak
         if level == "basic":
             assert not iso.network_isolated and iso.hidden_paths == () and iso.notes
+        elif level == "uid":
+            assert iso.uid not in (None, 0, os.getuid()) and iso.hidden_paths and not iso.network_isolated
         else:
             assert iso.network_isolated and iso.pid_namespace
+
+
+@pytest.mark.parametrize("level", ["user-namespaces", "basic"])
+def test_weak_levels_need_to_be_asked_for(level):
+    with pytest.raises(RuntimeError, match="allow-weak-isolation|would run as root"):
+        Sandbox(KIT_ROOT, isolation=level, limits=LIMITS)
 
 
 def test_unknown_isolation_level_is_refused():

@@ -19,9 +19,20 @@ Isolation, strongest available first (``Sandbox.isolation`` says which was used;
     included; a sweep of /proc for the sandbox's uid is the backstop (``uids.py``).
 ``user-namespaces`` (not root, but unprivileged user namespaces allowed)
     The same namespaces and masks inside a user namespace; the code keeps the grader's uid.
-``basic``
+``uid`` (root without namespaces: a container with Docker's default capabilities)
+    A uid of its own and the sandbox's group (``deny.SANDBOX_GID``), no capabilities, no new
+    privileges, resource limits, a new session, the /proc sweep.  Every hidden path gets an ACL
+    entry that denies that group (``deny.py``), and the probe checks, as that uid, that none of
+    them can be read.  The Python must be reachable without opening a private folder: a pyenv
+    under /root is refused with the fix (a venv from a public Python).  The network is NOT cut,
+    and files any user may read stay readable: the grader writes its own files owner-only.
+``basic`` (weak, only with ``allow_weak``)
     Resource limits, a new session killed as a group, and (as root) the dedicated uid plus the
     /proc sweep.  Hidden paths are NOT hidden and the network is NOT cut: ``Isolation`` says so.
+
+Student code never runs as root or as the grader's own user unless ``allow_weak`` is given
+(``user-namespaces`` keeps the grader's uid, ``basic`` its files): without it, a machine where
+only a weak level works raises ``IsolationRefused`` saying what is missing and how to fix it.
 
 In every level: a fresh working folder (HOME) per child, removed afterwards, a minimal
 environment without the grader's variables, rlimits (CPU, address space, processes, file size,
@@ -45,10 +56,11 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from core.shipping import SANDBOX_PACKAGES
+from core.shipping import NEVER_TO_STUDENTS, SANDBOX_PACKAGES
 
 from . import levels
-from .model import LEVELS, STATUSES, CallOutcome, Isolation, ResourceLimits, SessionInfo
+from .deny import SANDBOX_GID
+from .model import LEVELS, STATUSES, WEAK_LEVELS, CallOutcome, Isolation, IsolationRefused, ResourceLimits, SessionInfo
 from .script import MPL_CACHE, Runtime
 from .session import Session
 from .uids import live_pids_of_uid, release_uid
@@ -57,7 +69,11 @@ __all__ = [
     "STATUSES",
     "CallOutcome",
     "Isolation",
+    "IsolationRefused",
+    "LEVELS",
     "ResourceLimits",
+    "SANDBOX_GID",
+    "WEAK_LEVELS",
     "Sandbox",
     "Session",
     "SessionInfo",
@@ -81,9 +97,12 @@ class Sandbox:
     packages : sequence of str
         Top-level packages of the kit the student may import (``core`` is needed by the child).
     limits : ResourceLimits
-    isolation : {"auto", "namespaces", "user-namespaces", "basic"}
+    isolation : {"auto", "namespaces", "user-namespaces", "uid", "basic"}
         "auto" takes the strongest level that works here; a named level that does not work
-        raises RuntimeError.
+        raises ``IsolationRefused`` (a RuntimeError).
+    allow_weak : bool
+        Accept a weak level (``WEAK_LEVELS``: the code keeps the grader's uid or can read its
+        files) when nothing stronger works; the result's ``Isolation.weak`` then says so.
     private_tmp : bool
         Give the code its own empty /tmp, /var/tmp and /dev/shm (namespace levels only).
     uid : int, optional
@@ -92,7 +111,8 @@ class Sandbox:
 
     def __init__(self, kit_root: str | Path | None = None, *, hidden: Sequence[str | Path] = (),
                  packages: Sequence[str] = SANDBOX_PACKAGES, limits: ResourceLimits = ResourceLimits(),
-                 isolation: str = "auto", private_tmp: bool = True, uid: int | None = None):
+                 isolation: str = "auto", private_tmp: bool = True, uid: int | None = None,
+                 allow_weak: bool = False):
         if isolation not in ("auto",) + LEVELS:
             raise ValueError(f"isolation: expected 'auto' or one of {LEVELS}, got {isolation!r}")
         self.kit_root = Path(kit_root).resolve() if kit_root else Path(__file__).resolve().parents[2]
@@ -108,7 +128,7 @@ class Sandbox:
             hidden_paths = _hidden_paths(self.kit_root, hidden)
             self.runtime, self.isolation, self._uid_fd = levels.choose(
                 isolation, lib=lib, hidden=hidden_paths, private_tmp=private_tmp, limits=limits,
-                scratch=self._base, uid=uid)
+                scratch=self._base, uid=uid, allow_weak=allow_weak)
         except BaseException:
             self.close()
             raise
@@ -118,7 +138,7 @@ class Sandbox:
     def describe(self) -> dict:
         """What another grader process needs to run sessions here (see ``attach``): plain JSON."""
         rt = self.runtime
-        return {"base": str(self._base), "level": rt.level, "uid": rt.uid, "lib": str(rt.lib),
+        return {"base": str(self._base), "level": rt.level, "uid": rt.uid, "gid": rt.gid, "lib": str(rt.lib),
                 "hidden": [str(p) for p in rt.hidden], "private_tmp": rt.private_tmp,
                 "limits": vars(rt.limits) | {}, "isolation": self.isolation.as_dict(),
                 "kit_root": str(self.kit_root)}
@@ -135,7 +155,7 @@ class Sandbox:
         box._owner = False
         box._base = Path(spec["base"])
         box.runtime = Runtime(spec["level"], spec["uid"], Path(spec["lib"]), tuple(Path(p) for p in spec["hidden"]),
-                              bool(spec["private_tmp"]), box.limits)
+                              bool(spec["private_tmp"]), box.limits, spec.get("gid"))
         iso = dict(spec["isolation"])
         box.isolation = Isolation(**{**iso, "hidden_paths": tuple(iso["hidden_paths"]), "notes": tuple(iso["notes"])})
         return box
@@ -194,7 +214,9 @@ def _build_lib(lib: Path, kit_root: Path, packages: Sequence[str]) -> None:
 
 
 def _hidden_paths(kit_root: Path, extra: Sequence[str | Path]) -> tuple[Path, ...]:
-    found = [kit_root / "solutions", kit_root / "autograder", kit_root / "tests"]
+    # What never ships to students (solutions, autograder, tests, the answer-key notebooks...),
+    # and the kit's history and build folders, which hold the same files.
+    found = [kit_root / rel for rel in NEVER_TO_STUDENTS + (".git", "build")]
     for pkg in ("solutions", "autograder"):
         try:
             spec = importlib.util.find_spec(pkg)

@@ -1,11 +1,26 @@
 """Choosing the isolation level: try each level, strongest first, by running a trivial program in it.
 
-Nothing here keeps state: ``choose`` returns the runtime that worked, its ``Isolation`` and the
-lock that reserves its uid (the caller releases it).
+The levels, and what a level must prove before it is used:
+
+``namespaces``       the grader is root and may make namespaces (``unshare``); the probe runs.
+``user-namespaces``  the grader is not root: weak (the code keeps the grader's uid), so only with
+                     ``allow_weak``.
+``uid``              the grader is root without namespaces (a container with Docker's default
+                     capabilities): the code runs under a uid and group of its own; the Python
+                     it runs must be reachable by that uid (never a pyenv under /root), and every
+                     hidden path is denied to its group (``deny.py``), which the probe checks by
+                     trying to read each one as that uid.
+``basic``            weak: the code may keep the grader's uid and read the grader's files; only
+                     with ``allow_weak``.
+
+When nothing strong enough works, ``choose`` raises ``IsolationRefused`` naming what each level
+lacked and how to fix it.  Nothing here keeps state: ``choose`` returns the runtime that worked,
+its ``Isolation`` and the lock that reserves its uid (the caller releases it).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -14,63 +29,117 @@ import tempfile
 from pathlib import Path
 
 from . import script
-from .model import LEVELS, Isolation, ResourceLimits
+from .deny import SANDBOX_GID, deny_group
+from .model import LEVELS, WEAK_LEVELS, Isolation, IsolationRefused, ResourceLimits
 from .script import Runtime
 from .uids import claim_uid, pick_uid, release_uid, sweep_uid
 
-__all__ = ["choose", "isolation_of"]
+__all__ = ["choose", "isolation_of", "python_fix"]
+
+# Reads every path given on its command line; prints the ones it could read, as JSON.
+_READ_PROBE = """\
+import json, os, sys
+import numpy
+seen = []
+for p in sys.argv[1:]:
+    try:
+        if os.path.isdir(p):
+            os.listdir(p)
+        else:
+            open(p, 'rb').close()
+        seen.append(p)
+    except OSError:
+        pass
+print('sandbox-ok ' + json.dumps([os.getuid(), os.getgid(), seen]))
+"""
 
 
-def isolation_of(rt: Runtime, notes: tuple[str, ...] = ()) -> Isolation:
+def isolation_of(rt: Runtime, notes: tuple[str, ...] = (), weak: bool = False) -> Isolation:
     """What a runtime isolates, in the words of the results."""
     namespaced = rt.namespaced
     extra = []
-    if not namespaced:
+    if rt.level == "uid":
+        extra.append("no namespaces here: the hidden paths are unreadable to the code's uid (checked), the "
+                     "network stays reachable and files that other users may read stay readable")
+    elif not namespaced:
         extra.append("hidden paths stay readable and the network reachable at this level")
     if rt.uid is None:
         extra.append("the code runs as the grader's own user")
-    return Isolation(rt.level, rt.uid, namespaced, namespaced, namespaced and rt.private_tmp,
-                     tuple(str(p) for p in rt.hidden) if namespaced else (), notes + tuple(extra))
+    hidden = tuple(str(p) for p in rt.hidden) if namespaced or rt.level == "uid" else ()
+    return Isolation(rt.level, rt.uid, namespaced, namespaced, namespaced and rt.private_tmp, hidden,
+                     notes + tuple(extra), weak)
+
+
+def python_fix() -> str:
+    """What to do when this Python lies under a folder other users cannot enter."""
+    blocked = script.unreachable_python_dirs()
+    where = ", ".join(f"{top} (mode {os.stat(top).st_mode & 0o777:o}) holds {', '.join(map(str, kept))}"
+                      for top, kept in blocked.items())
+    return (f"the Python running the grader ({sys.executable}) lies under a folder the sandbox's user cannot "
+            f"enter: {where}. Fix: make a virtual environment from a public Python and grade with it, e.g. "
+            f"`/usr/bin/python3 -m venv /opt/hw4-venv && /opt/hw4-venv/bin/pip install -r requirements.txt && "
+            f"/opt/hw4-venv/bin/pip install -e .`, then run `/opt/hw4-venv/bin/python -m autograder ...` "
+            f"(or grade where namespaces work: as root with CAP_SYS_ADMIN)")
 
 
 def choose(requested: str, *, lib: Path, hidden: tuple[Path, ...], private_tmp: bool, limits: ResourceLimits,
-           scratch: Path, uid: int | None = None) -> tuple[Runtime, Isolation, int | None]:
+           scratch: Path, uid: int | None = None, allow_weak: bool = False
+           ) -> tuple[Runtime, Isolation, int | None]:
     """(runtime, isolation, uid lock fd) of the strongest level that works ("auto") or of ``requested``.
+
+    A weak level (``WEAK_LEVELS``) is tried only with ``allow_weak``.
 
     Raises
     ------
-    RuntimeError
-        When the requested level (or, for "auto", every level) does not work here.
+    IsolationRefused
+        When the requested level (or, for "auto", every level allowed) does not work here; the
+        message says why for each and how to fix it.
     """
     notes: list[str] = []
     candidates = LEVELS if requested == "auto" else (requested,)
     for level in candidates:
+        if level in WEAK_LEVELS and not allow_weak and not (level == "user-namespaces" and os.geteuid() == 0):
+            why = ("the code would keep the grader's own uid" if level == "user-namespaces"
+                   else "the code could read the grader's files (and may keep its uid)")
+            notes.append(f"{level} not tried: it is weak ({why}); pass --allow-weak-isolation to accept it")
+            continue
         reason, found = _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes)
         if reason is None:
             rt, fd = found
-            return rt, isolation_of(rt, tuple(notes)), fd
+            return rt, isolation_of(rt, tuple(notes), weak=level in WEAK_LEVELS), fd
         notes.append(f"{level} unavailable: {reason}")
-        if requested != "auto":
-            raise RuntimeError(f"isolation: {level} does not work here ({reason})")
-    raise RuntimeError("isolation: no level works here: " + "; ".join(notes))
+    head = (f"isolation: {requested} does not work here" if requested != "auto"
+            else "isolation: no level safe enough works here, so nothing is graded")
+    raise IsolationRefused(head + ": " + "; ".join(notes))
 
 
 def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
     """(None, (runtime, uid fd)) when ``level`` works, else (the reason, None)."""
     root = os.geteuid() == 0
-    if level == "namespaces" and not root:
-        return "the grader is not root", None
+    if level in ("namespaces", "uid") and not root:
+        return "the grader is not root (only root can run the code under a uid of its own)", None
     if level == "user-namespaces" and root:
         # Mapped to root inside, the code would keep the grader's real uid: never choose it
         # silently when a real unprivileged uid is available at the basic level.
         return "the grader is root, so the code would run as root", None
-    if level != "basic":
+    if level in ("namespaces", "user-namespaces"):
         for tool in ("unshare", "mount") + (("setpriv",) if level == "namespaces" else ()):
             if shutil.which(tool) is None:
                 return f"{tool} is not installed", None
+    gid = None
+    if level == "uid":
+        if script.unreachable_python_dirs():
+            # Without a mount namespace nothing can make a private Python reachable to another uid
+            # short of opening the private folder, which would open everything else in it.
+            return python_fix(), None
+        try:
+            notes.extend(deny_group(hidden, SANDBOX_GID))
+        except OSError as exc:
+            return (f"the hidden paths could not be made unreadable to the sandbox's group ({exc}); run the "
+                    f"grader as the owner of its files, on a writable filesystem"), None
+        gid = SANDBOX_GID
     want_uid = root and level != "user-namespaces"
     if want_uid and level == "basic" and script.unreachable_python_dirs():
-        # Without a mount namespace nothing can make a private Python reachable to another uid.
         notes.append("basic: Python is installed under a private folder, so the code keeps the grader's uid")
         want_uid = False
     the_uid, fd = None, None
@@ -80,7 +149,7 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
             claim_uid(uid)
         else:
             the_uid, fd = pick_uid()
-    rt = Runtime(level, the_uid, lib, hidden, private_tmp, limits)
+    rt = Runtime(level, the_uid, lib, hidden, private_tmp, limits, gid)
     reason = _probe(rt, scratch)
     if reason is not None:
         release_uid(the_uid, fd)
@@ -89,20 +158,28 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
 
 
 def _probe(rt: Runtime, scratch: Path) -> str | None:
-    """None when a trivial program runs in ``rt``, else the reason."""
+    """None when a trivial program runs in ``rt`` (at the ``uid`` level: as its uid, reading none of
+    the hidden paths), else the reason."""
     jobdir = Path(tempfile.mkdtemp(prefix="probe", dir=scratch))
     os.chmod(jobdir, 0o711)
     try:
         workdir = script.make_workdir(rt, jobdir)
-        program = [sys.executable, "-I", "-B", "-c", "import numpy; print('sandbox-ok')"]
+        program = [sys.executable, "-I", "-B", "-c", _READ_PROBE, *[str(p) for p in rt.hidden]]
         try:
             proc = subprocess.run(script.command(rt, workdir, program), capture_output=True, timeout=60,
                                   stdin=subprocess.DEVNULL, check=False, **script.popen_options(rt, workdir, 60))
         except (OSError, subprocess.SubprocessError) as exc:
             return f"{type(exc).__name__}: {exc}"
-        if proc.returncode != 0 or b"sandbox-ok" not in proc.stdout:
+        out = proc.stdout.decode(errors="replace")
+        if proc.returncode != 0 or "sandbox-ok " not in out:
             tail = proc.stderr.decode(errors="replace").strip().splitlines()[-1:] or [f"exit code {proc.returncode}"]
             return tail[0][:300]
+        got_uid, got_gid, seen = json.loads(out.split("sandbox-ok ", 1)[1].splitlines()[0])
+        if rt.uid is not None and (got_uid != rt.uid or got_uid in (0, os.getuid())):
+            return f"the code ran as uid {got_uid}, not the sandbox's {rt.uid}"
+        if rt.level == "uid" and seen:
+            return (f"the sandbox's uid can still read {', '.join(seen[:5])}; make these paths unreadable to "
+                    f"other users (chmod o-rwx) or grade where namespaces work")
         return None
     finally:
         shutil.rmtree(jobdir, ignore_errors=True)

@@ -5,10 +5,18 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-__all__ = ["LEVELS", "STATUSES", "CallOutcome", "Isolation", "ResourceLimits", "SessionInfo"]
+__all__ = ["LEVELS", "STATUSES", "WEAK_LEVELS", "CallOutcome", "Isolation", "IsolationRefused", "ResourceLimits",
+           "SessionInfo"]
 
 STATUSES = ("ok", "exception", "timeout", "crashed", "missing", "malformed", "skipped")
-LEVELS = ("namespaces", "user-namespaces", "basic")
+LEVELS = ("namespaces", "user-namespaces", "uid", "basic")
+# Levels where the code keeps the grader's uid or can read the grader's files: only on request.
+WEAK_LEVELS = ("user-namespaces", "basic")
+
+
+class IsolationRefused(RuntimeError, ValueError):
+    """No level at least as strong as required works here; the message says what is missing and
+    how to fix it.  A ValueError too, so that a command prints it as an error, not a traceback."""
 
 
 @dataclass(frozen=True)
@@ -57,10 +65,12 @@ class CallOutcome:
 class Isolation:
     """How the code was isolated (reported in the results).
 
-    level: "namespaces", "user-namespaces" or "basic"; uid: the uid the code ran as (None: the
-    grader's own); pid_namespace, network_isolated, private_tmp: what those words say;
-    hidden_paths: paths the code could not see (empty when the level cannot hide paths);
-    notes: why a stronger level was not used, and other caveats.
+    level: one of ``LEVELS``; uid: the uid the code ran as (None: the grader's own);
+    pid_namespace, network_isolated, private_tmp: what those words say; hidden_paths: paths the
+    code could not read (by a mount namespace, or at the ``uid`` level by permissions checked as
+    the code's uid; empty when the level cannot hide paths); notes: why a stronger level was not
+    used, and other caveats; weak: the code kept the grader's uid or could read the grader's
+    files (only when asked for with ``allow_weak``).
     """
 
     level: str
@@ -70,12 +80,13 @@ class Isolation:
     private_tmp: bool
     hidden_paths: tuple[str, ...]
     notes: tuple[str, ...] = ()
+    weak: bool = False
 
     def as_dict(self) -> dict:
         return asdict(self)
 
     def summary(self) -> str:
-        parts = [self.level]
+        parts = [self.level + (" (WEAK: allowed by --allow-weak-isolation)" if self.weak else "")]
         parts.append(f"uid {self.uid}" if self.uid is not None else "grader's uid")
         parts.append("network cut" if self.network_isolated else "network NOT cut")
         parts.append(f"{len(self.hidden_paths)} paths hidden" if self.hidden_paths else "nothing hidden")

@@ -26,6 +26,7 @@ MPL_CACHE = "mplconfig"
 PRIVATE_TMP_DIRS = ("/tmp", "/var/tmp", "/dev/shm")
 _STAGE_FD_MAX = 9      # a POSIX shell redirects only single-digit fds
 _PR_SET_PDEATHSIG = 1
+_PR_SET_NO_NEW_PRIVS = 38
 try:
     # Loaded here: after fork, in the pre-exec hook, nothing should need to be imported.
     _LIBC = ctypes.CDLL(None, use_errno=True)
@@ -39,7 +40,10 @@ class Runtime:
 
     level: the isolation level; uid: the sandbox's own uid (None: the grader's); lib: the folder
     holding child.py and the kit packages the student may import; hidden: paths covered inside
-    the namespace; private_tmp: own /tmp, /var/tmp, /dev/shm; limits: the rlimits and sizes.
+    the namespace (or, at the ``uid`` level, unreadable to ``gid``); private_tmp: own /tmp,
+    /var/tmp, /dev/shm; limits: the rlimits and sizes; gid: the group the code runs in (None:
+    the same number as ``uid``; at the ``uid`` level the sandbox's group that the hidden paths
+    deny, ``deny.SANDBOX_GID``).
     """
 
     level: str
@@ -48,6 +52,7 @@ class Runtime:
     hidden: tuple[Path, ...]
     private_tmp: bool
     limits: ResourceLimits
+    gid: int | None = None
 
     @property
     def namespaced(self) -> bool:
@@ -136,10 +141,10 @@ def env(workdir: Path) -> dict[str, str]:
 def popen_options(rt: Runtime, workdir: Path, cpu_seconds: int) -> dict:
     """Popen arguments shared by probes and sessions: environment, session, uid, rlimits."""
     options = {"env": env(workdir), "start_new_session": True, "preexec_fn": _preexec(rt, cpu_seconds), "cwd": "/"}
-    if rt.level == "basic":
+    if not rt.namespaced:
         options["cwd"] = str(workdir)
         if rt.uid is not None:
-            options.update(user=rt.uid, group=rt.uid, extra_groups=[])
+            options.update(user=rt.uid, group=rt.uid if rt.gid is None else rt.gid, extra_groups=[])
     return options
 
 
@@ -147,6 +152,7 @@ def _preexec(rt: Runtime, cpu_seconds: int):
     """Runs in the forked child before exec (after Popen's own uid change): the rlimits."""
     limits = rt.limits
     nproc = limits.processes
+    no_new_privs = not rt.namespaced and rt.uid is not None
     if rt.uid is None:
         # Without a uid of its own the process count is shared with the grader's user.
         nproc += count_processes(os.getuid())
@@ -168,13 +174,16 @@ def _preexec(rt: Runtime, cpu_seconds: int):
         if _LIBC is not None:
             # If the grader dies, the sandbox dies with it instead of running on unwatched.
             _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+            if no_new_privs:
+                # No setuid program (su, mount...) can give the code back any privilege.
+                _LIBC.prctl(_PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0)
 
     return setup
 
 
 def command(rt: Runtime, workdir: Path, program: list[str]) -> list[str]:
     """argv that runs ``program`` at the runtime's isolation level."""
-    if rt.level == "basic":
+    if not rt.namespaced:
         return program
     flags = ["--pid", "--fork", "--kill-child", "--mount-proc", "--net", "--mount", "--ipc", "--uts"]
     if rt.level == "user-namespaces":
