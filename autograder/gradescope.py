@@ -22,8 +22,33 @@ Contents of the zip (paths relative to /autograder/source):
 ``data/``                             the kit's default data (generated when the kit's is empty)
 ``grader_config.json``                the instructor's grading settings at build time, with the
                                       secret all hidden seeds derive from (``autograder.config``)
-``BUNDLE.json``                       what was built, when, with which limits (no secrets)
+``hidden_inputs/``                    the hidden inputs made at build time from that config
+                                      (``autograder.hidden.inputs.save``), so that no container
+                                      makes them again
+``BUNDLE.json``                       what was built, when, with which limits and visibility
+                                      (no secrets)
 ====================================  ==========================================================
+
+Time limits fit the container.  Each check's designed limit (``time_scale`` 1 of the grading
+settings) is multiplied by ``time_factor`` (default 0.1: the answer key needs well under a tenth
+of any designed limit) and by the container's measured slowness: before grading, a fixed
+single-threaded loop (``calibrate``) is timed against this kit's reference machine, so a container
+with half a CPU, or a busy neighbour, gets limits twice as long in wall-clock seconds, that is the
+same CPU seconds.  A submission whose every function hangs then costs each function one short
+limit (about 50 s in all at full speed, under 120 s at 0.5 vCPU) instead of the designed minutes.
+
+What students see (Gradescope's test visibility, per group, set at build time with
+``--visibility GROUP=WHEN``; WHEN is visible, after_due_date, after_published or hidden):
+
+- ``scores``: one test per question with its points (default **visible**: students see their
+  points per question and the total at once);
+- ``checks``: one test per hidden check with its feedback, no points (default
+  **after_published**: the details of what failed, which describe the hidden inputs' outcomes,
+  reach students only when the staff publish the grades).  A check the grader marks hidden stays
+  hidden whatever the group says.
+
+The summary always shows the base points and the extra credit apart ("Base points: 75 / 75",
+"Extra credit: 15 / 15"); Gradescope's total is the top-level score, extra credit included.
 
 Never included: ``tests/``, ``notebooks/`` (the answer key), ``benchmarks/``, the official course
 data, version-control and build leftovers.  Gradescope students never see the bundle; what they
@@ -33,8 +58,9 @@ see is results.json, which carries the grader's feedback and never the hidden in
 from __future__ import annotations
 
 import argparse
-import json
 import dataclasses
+import json
+import math
 import os
 import re
 import stat
@@ -52,17 +78,22 @@ from .results import SubmissionResult
 __all__ = [
     "ASSETS",
     "CONFIG_NAME",
+    "DEFAULT_TIME_FACTOR",
     "DEFAULT_TIME_LIMIT",
     "DEFAULT_VENV",
+    "DEFAULT_VISIBILITY",
+    "REFERENCE_CALIBRATION",
     "KIT_ROOT",
     "PACKAGES",
     "add_cli",
     "build_bundle",
+    "calibrate",
     "config_file",
     "data_files",
     "grader_files",
     "grade_gradescope",
     "hideable",
+    "limits_scale",
     "render_asset",
 ]
 
@@ -71,6 +102,13 @@ ASSETS = Path(__file__).resolve().with_name("gradescope_assets")
 PACKAGES = GRADER_PACKAGES  # which packages ship: core.shipping, the kit's one table
 DEFAULT_TIME_LIMIT = 540   # seconds: below Gradescope's default 10-minute limit, room for the fallback
 DEFAULT_VENV = "/opt/hw4-venv"
+DEFAULT_TIME_FACTOR = 0.1  # of each check's designed limit, at the reference machine's speed
+DEFAULT_VISIBILITY = {"scores": "visible", "checks": "after_published"}
+# Seconds the calibration loop takes on the reference machine (2 cores, Python 3.11, idle).
+REFERENCE_CALIBRATION = 0.19
+_CALIBRATION_LOOPS = 4_000_000
+_SLOWNESS_RANGE = (1.0, 8.0)  # never tighter than at the reference speed; at most 8 times looser
+HIDDEN_INPUTS_DIR = "hidden_inputs"
 _SCRIPTS = ("setup.sh", "run_autograder")
 _SKIP_PARTS = {"__pycache__", ".ipynb_checkpoints", ".pytest_cache", ".mypy_cache", ".ruff_cache"}
 _SKIP_SUFFIXES = (".pyc", ".pyo")
@@ -187,8 +225,33 @@ def config_file(scratch: Path, *, allow_dev_secret: bool = False) -> list[tuple[
     return [(CONFIG_NAME, path)]
 
 
+def _check_visibility(visibility) -> dict:
+    from .results import VISIBILITIES
+
+    out = dict(DEFAULT_VISIBILITY)
+    for group, when in dict(visibility or {}).items():
+        if group not in out or when not in VISIBILITIES:
+            raise ValueError(f"visibility: expected GROUP=WHEN with GROUP in {sorted(out)} and WHEN in "
+                             f"{list(VISIBILITIES)}, got {group}={when}")
+        out[group] = when
+    return out
+
+
+def hidden_inputs_file(scratch: Path) -> list[tuple[str, Path]]:
+    """The hidden inputs of ``scratch/grader_config.json`` (written by ``config_file``), made now and
+    saved by ``autograder.hidden.inputs.save`` under ``scratch/hidden_inputs``: the bundle's members."""
+    from .config import load_config
+    from .hidden import inputs
+
+    config = load_config(scratch / CONFIG_NAME, environ={})
+    folder = scratch / HIDDEN_INPUTS_DIR
+    inputs.save(inputs.build_hidden_inputs(config), folder)
+    return [(f"{HIDDEN_INPUTS_DIR}/{p.name}", p) for p in sorted(folder.iterdir()) if p.is_file()]
+
+
 def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit: int = DEFAULT_TIME_LIMIT,
-                 venv: str = DEFAULT_VENV, allow_dev_secret: bool = False) -> Path:
+                 venv: str = DEFAULT_VENV, allow_dev_secret: bool = False, visibility: dict | None = None,
+                 time_factor: float = DEFAULT_TIME_FACTOR) -> Path:
     """Write Gradescope's autograder zip to ``out`` and return its path.
 
     Parameters
@@ -199,6 +262,10 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
         Keep it below the autograder timeout set on Gradescope.
     venv : where ``setup.sh`` makes the virtual environment on Gradescope's image.
     allow_dev_secret : build with the public development secret (for trying the bundle out only).
+    visibility : ``{"scores": WHEN, "checks": WHEN}``, Gradescope's visibility of each group of
+        tests (module docstring); missing groups take ``DEFAULT_VISIBILITY``.
+    time_factor : the share of each check's designed time limit a call gets at the reference
+        speed (scaled on Gradescope by the container's measured slowness).
 
     Raises
     ------
@@ -211,17 +278,22 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
         raise ValueError(f"out: expected a path ending in .zip, got {str(out)!r}")
     if not out.parent.is_dir():
         raise FileNotFoundError(f"out: expected an existing folder for {out}, got none at {out.parent}")
+    if isinstance(time_factor, bool) or not isinstance(time_factor, (int, float)) or not 0 < time_factor <= 10:
+        raise ValueError(f"time_factor: expected a number in (0, 10], got {time_factor!r}")
+    shown = _check_visibility(visibility)
     root = Path(kit_root).resolve()
     scripts = {name: render_asset(name, time_limit=time_limit, venv=venv) for name in _SCRIPTS}
     with tempfile.TemporaryDirectory(prefix="hw4-gradescope-") as tmp:
         scratch = Path(tmp)
         members = grader_files(root) + data_files(root, scratch) + config_file(scratch, allow_dev_secret=allow_dev_secret)
+        members += hidden_inputs_file(scratch)
         names = [n for n, _ in members]
         if len(set(names)) != len(names) or set(names) & set(_SCRIPTS):
             raise ValueError(f"kit_root: two bundle files would share a path: {sorted(names)}")
         info = {"built": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "time_limit": time_limit, "venv": venv,
                 "python_built_with": sys.version.split()[0], "files": len(members) + len(_SCRIPTS) + 1,
-                "development_secret": allow_dev_secret and _is_dev(scratch)}
+                "development_secret": allow_dev_secret and _is_dev(scratch), "visibility": shown,
+                "time_factor": float(time_factor), "reference_calibration": REFERENCE_CALIBRATION}
         fd, partial = tempfile.mkstemp(dir=out.parent, prefix=".autograder-", suffix=".zip")
         os.close(fd)
         try:
@@ -280,25 +352,92 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
 
     Never raises for anything the submission does: an unusable submission, a sandbox that
     cannot start or a grader error gives ``SubmissionResult.failed`` with the reason (grader
-    tracebacks go to stdout, which Gradescope shows to staff only).
+    tracebacks go to stdout, which Gradescope shows to staff only).  The tests' visibility and
+    the time factor come from the bundle's BUNDLE.json (defaults when it cannot be read).
     """
     root = Path(root)
     results = root / "results"
     results.mkdir(parents=True, exist_ok=True)
     start = time.monotonic()
+    settings = _bundle_settings(root / "source")
+    timing: dict = {}
     path, why = _submission_path(root / "submission")
     if path is None:
         result = SubmissionResult.failed(why)
     else:
         try:
-            result = _grade(path, root)
+            result = _grade(path, root, settings["time_factor"], timing)
         except Exception:  # noqa: BLE001 - whatever broke, the student still gets a result
             traceback.print_exc(file=sys.stdout)
             result = SubmissionResult.failed("the autograder hit an internal error; the course staff can see its log")
     if result.execution_time is None:
         result = dataclasses.replace(result, execution_time=time.monotonic() - start)
-    result.write_gradescope(results / "results.json")
+    data = result.to_gradescope(visibility=settings["visibility"])
+    data["extra_data"]["timing"] = timing  # staff only: extra_data is not shown to students
+    from core.text import write_atomic
+
+    write_atomic(results / "results.json", json.dumps(data, indent=2, allow_nan=False), mode=0o600)
     return result
+
+
+def _bundle_settings(source: Path) -> dict:
+    """Visibility and time factor from ``source/BUNDLE.json``, each checked; defaults otherwise."""
+    out = {"visibility": dict(DEFAULT_VISIBILITY), "time_factor": DEFAULT_TIME_FACTOR}
+    try:
+        info = json.loads((source / "BUNDLE.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        print("BUNDLE.json unreadable: default visibility and time factor")
+        return out
+    try:
+        out["visibility"] = _check_visibility(info.get("visibility"))
+    except ValueError as exc:
+        print(f"BUNDLE.json: {exc}; default visibility")
+    factor = info.get("time_factor", DEFAULT_TIME_FACTOR)
+    if isinstance(factor, (int, float)) and not isinstance(factor, bool) and 0 < factor <= 10:
+        out["time_factor"] = float(factor)
+    return out
+
+
+def calibrate(rounds: int = 3) -> float:
+    """Seconds this machine takes, now, for the fixed single-threaded loop (median of ``rounds``).
+
+    Wall-clock time on purpose: a container with half a CPU, or a CPU shared with a busy
+    neighbour, takes longer, and so will the student's code.
+    """
+    times = []
+    for _ in range(max(int(rounds), 1)):
+        t = time.perf_counter()
+        x = 0
+        for i in range(_CALIBRATION_LOOPS):
+            x = (x * 31 + i) % 1_000_003
+        times.append(time.perf_counter() - t)
+    return sorted(times)[len(times) // 2]
+
+
+def limits_scale(measured: float, time_factor: float = DEFAULT_TIME_FACTOR) -> tuple[float, float]:
+    """``(slowness, time scale)``: how much slower than the reference machine ``measured`` (the
+    seconds of ``calibrate``) is, clipped to ``_SLOWNESS_RANGE``, and the factor every check's
+    designed time limit is multiplied by here (``time_factor * slowness``)."""
+    if not (isinstance(measured, (int, float)) and measured > 0 and math.isfinite(measured)):
+        raise ValueError(f"measured: expected a positive number of seconds, got {measured!r}")
+    lo, hi = _SLOWNESS_RANGE
+    slowness = min(max(measured / REFERENCE_CALIBRATION, lo), hi)
+    return slowness, time_factor * slowness
+
+
+def _bundled_inputs(source: Path, config):
+    """The hidden inputs the bundle carries for ``config``, or None (then they are made here)."""
+    from .hidden import inputs
+
+    folder = source / HIDDEN_INPUTS_DIR
+    if not folder.is_dir():
+        return None
+    try:
+        os.chmod(folder, 0o700)  # setup.sh makes it so; an unzip by hand may not
+        return inputs.load(folder, config)
+    except (OSError, ValueError, EOFError, AttributeError, ImportError) as exc:
+        print(f"bundled hidden inputs not used ({type(exc).__name__}: {exc}); making them now")
+        return None
 
 
 def _is_dev(scratch: Path) -> bool:
@@ -320,13 +459,15 @@ def hideable(paths) -> list[Path]:
     return out
 
 
-def _grade(path: Path, root: Path) -> SubmissionResult:
+def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
+           timing: dict | None = None) -> SubmissionResult:
     from .config import load_config
     from .grade import grade_submission
     from .sandbox import Sandbox
     from .submission import SubmissionError, load_submission
-    from .hidden.inputs import build_hidden_inputs
+    from .hidden.inputs import HiddenInputs, build_hidden_inputs
 
+    timing = timing if timing is not None else {}
     try:
         # Cheap, so an unreadable upload is told so at once, before scenes and sandbox are made.
         if not load_submission(path).notebooks:
@@ -337,10 +478,20 @@ def _grade(path: Path, root: Path) -> SubmissionResult:
     source = root / "source"
     # environ={}: on Gradescope nothing but the bundled file decides the hidden inputs.
     config = load_config(source / CONFIG_NAME, environ={})
-    hidden_inputs = build_hidden_inputs(config)
+    t = time.monotonic()
+    hidden = _bundled_inputs(source, config)
+    timing["hidden_inputs"] = "bundled" if hidden is not None else "made"
+    hidden = hidden or build_hidden_inputs(config)
+    timing["hidden_inputs_seconds"] = round(time.monotonic() - t, 3)
+    measured = calibrate()
+    slowness, scale = limits_scale(measured, time_factor)
+    timing.update(calibration_seconds=round(measured, 4), slowness=round(slowness, 3),
+                  time_scale=round(config.time_scale * scale, 4))
+    # The same inputs with this container's limits (the checks read them from config.time_scale).
+    hidden = HiddenInputs(dataclasses.replace(config, time_scale=config.time_scale * scale), None, hidden.prepared)
     # All of root: the grader, the results, Gradescope's submission metadata.
     with Sandbox(source, hidden=hideable([root, config.source, config.official_dir()])) as box:
-        return grade_submission(path, sandbox=box, hidden_inputs=hidden_inputs)
+        return grade_submission(path, sandbox=box, hidden_inputs=hidden)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -355,7 +506,12 @@ def _cli(args) -> int:
         return 0
     if args.out is None:
         raise ValueError("--out: expected the path of the zip to write, got none")
-    path = build_bundle(args.out, time_limit=args.time_limit, venv=args.venv, allow_dev_secret=args.allow_dev_secret)
+    visibility = {}
+    for item in args.visibility or ():
+        group, _, when = item.partition("=")
+        visibility[group.strip()] = when.strip()
+    path = build_bundle(args.out, time_limit=args.time_limit, venv=args.venv, allow_dev_secret=args.allow_dev_secret,
+                        visibility=visibility, time_factor=args.time_factor)
     if args.allow_dev_secret:
         print("warning: this bundle may grade with the public development secret: try it out, do not grade with it")
     print(f"wrote {path} ({path.stat().st_size / 2**20:.1f} MB): upload it as the Gradescope autograder")
@@ -377,6 +533,13 @@ def add_cli(subparsers) -> None:
     p.add_argument("--allow-dev-secret", action="store_true",
                    help="build even without the course's grading secret (HW4_GRADER_SECRET / HW4_GRADER_CONFIG); "
                         "for trying the bundle out only")
+    p.add_argument("--visibility", nargs="+", metavar="GROUP=WHEN", default=None,
+                   help="Gradescope visibility of a group of tests: scores (one test per question, default "
+                        "visible) or checks (each check's feedback, default after_published); WHEN is visible, "
+                        "after_due_date, after_published or hidden")
+    p.add_argument("--time-factor", type=float, default=DEFAULT_TIME_FACTOR,
+                   help=f"share of each check's designed time limit a call gets at the reference speed "
+                        f"(default {DEFAULT_TIME_FACTOR}; scaled on Gradescope by the container's measured slowness)")
     actions = p.add_subparsers(dest="action")
     r = actions.add_parser("run", help="grade <root>/submission into <root>/results/results.json")
     r.add_argument("--root", default=os.environ.get("HW4_AUTOGRADER_ROOT", "/autograder"),

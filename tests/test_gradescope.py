@@ -100,7 +100,8 @@ def assert_valid_results(data: dict) -> None:
     assert isinstance(data["tests"], list)
     for t in data["tests"]:
         assert isinstance(t["name"], str) and t["name"]
-        assert 0 <= t["score"] <= t["max_score"] + 1e-9
+        if "score" in t:  # the per-question tests carry the points, the per-check ones none
+            assert 0 <= t["score"] <= t["max_score"] + 1e-9
         assert t["status"] in ("passed", "failed")
         assert t.get("visibility", "visible") in ("visible", "hidden", "after_due_date", "after_published")
     text = json.dumps(data)
@@ -226,7 +227,7 @@ def test_answer_key_gets_full_marks(gradescope_dir):
     data = run_autograder(gradescope_dir)
     assert_valid_results(data)
     assert data["extra_data"]["failure"] is None, data["output"]
-    full = sum(t["max_score"] for t in data["tests"])
+    full = sum(t.get("max_score", 0) for t in data["tests"])
     assert full == pytest.approx(sum(q.points for q in QUESTIONS if not q.by_hand))
     assert data["score"] == pytest.approx(full)
     graded = {t["name"].split()[0] for t in data["tests"]}
@@ -255,7 +256,7 @@ def test_a_zip_of_the_key_inside_the_submission_folder_is_graded(gradescope_dir)
     assert_valid_results(data)
     q2 = [t for t in data["tests"] if t["name"].startswith("Q2 ")]
     assert q2 and all(t["status"] == "passed" for t in q2)
-    assert 0 < data["score"] < sum(t["max_score"] for t in data["tests"])
+    assert 0 < data["score"] < sum(t.get("max_score", 0) for t in data["tests"])
 
 
 @pytest.mark.parametrize("case", ["empty", "bad-zip", "unsafe-zip"])
@@ -297,3 +298,88 @@ def test_broken_kit_still_gives_a_result(gradescope_dir):
     data = run_autograder(gradescope_dir)
     assert_valid_results(data)
     assert data["score"] == 0 and "internal error" in data["output"] and "broken on purpose" not in data["output"]
+
+
+# ------------------------------------------------------------------------------------------------
+# fitting the platform: precomputed inputs, calibrated limits, visibility, extra credit apart
+
+
+def test_bundle_carries_the_hidden_inputs_and_its_display_settings(bundle, names):
+    assert any(n.startswith(gradescope.HIDDEN_INPUTS_DIR + "/") for n in names)
+    with zipfile.ZipFile(bundle) as zf:
+        info = json.loads(zf.read("BUNDLE.json"))
+    assert info["visibility"] == gradescope.DEFAULT_VISIBILITY == {"scores": "visible", "checks": "after_published"}
+    assert info["time_factor"] == gradescope.DEFAULT_TIME_FACTOR
+
+
+def test_visibility_and_time_factor_are_checked_at_build(tmp_path):
+    with pytest.raises(ValueError, match="visibility"):
+        gradescope.build_bundle(tmp_path / "a.zip", visibility={"checks": "sometimes"}, allow_dev_secret=True)
+    with pytest.raises(ValueError, match="visibility"):
+        gradescope.build_bundle(tmp_path / "a.zip", visibility={"everything": "hidden"}, allow_dev_secret=True)
+    with pytest.raises(ValueError, match="time_factor"):
+        gradescope.build_bundle(tmp_path / "a.zip", time_factor=0, allow_dev_secret=True)
+    args = __import__("autograder.__main__", fromlist=["build_parser"]).build_parser().parse_args(
+        ["gradescope", "--out", "a.zip", "--visibility", "checks=hidden", "scores=after_due_date", "--time-factor", "0.2"])
+    assert args.visibility == ["checks=hidden", "scores=after_due_date"] and args.time_factor == 0.2
+
+
+def test_limits_scale_with_the_measured_slowness():
+    ref = gradescope.REFERENCE_CALIBRATION
+    assert gradescope.limits_scale(ref, 0.1) == pytest.approx((1.0, 0.1))
+    # Half a CPU: the loop takes twice as long, and so does every limit (the same CPU seconds).
+    assert gradescope.limits_scale(2 * ref, 0.1) == pytest.approx((2.0, 0.2))
+    assert gradescope.limits_scale(ref / 3, 0.1) == pytest.approx((1.0, 0.1))  # never tighter than the reference
+    assert gradescope.limits_scale(100 * ref, 0.1)[0] == 8.0
+    with pytest.raises(ValueError, match="measured"):
+        gradescope.limits_scale(0)
+    assert 0 < gradescope.calibrate(rounds=1) < 60
+
+
+def test_results_show_base_points_and_extra_credit_apart_with_per_group_visibility():
+    from autograder.results import QuestionResult, SubmissionResult, TestResult
+    from core.manifest import question
+
+    q2 = QuestionResult.of("Q2", [TestResult("F fits", 6, 6), TestResult("rank 2", 0, 4, feedback="F has rank 3")])
+    q6 = QuestionResult.of("Q6", [TestResult("points", question("Q6").points, question("Q6").points,
+                                             feedback="", visibility="hidden")])
+    result = SubmissionResult((q2, q6))
+    data = result.to_gradescope(visibility={"checks": "after_published"})
+    assert data["score"] == 6 + question("Q6").points
+    assert "Base points: 6 / 10" in data["output"] and f"Extra credit: {question('Q6').points} / " in data["output"]
+    scored = [t for t in data["tests"] if "score" in t]
+    checks = [t for t in data["tests"] if "score" not in t]
+    assert [(t["name"].split()[0], t["score"], t["max_score"], t["visibility"]) for t in scored] == [
+        ("Q2", 6, 10, "visible"), ("Q6", question("Q6").points, question("Q6").points, "visible")]
+    assert "extra credit" in scored[1]["name"]
+    assert [t["visibility"] for t in checks] == ["after_published", "after_published", "hidden"]
+    assert "F has rank 3" in checks[1]["output"] and "F has rank 3" not in data["output"]
+    assert "when the course staff publish" in data["output"]
+    everything = result.to_gradescope(visibility={"checks": "visible"})
+    assert [t["visibility"] for t in everything["tests"] if "score" not in t] == ["visible", "visible", "hidden"]
+
+
+@pytest.mark.slow
+def test_results_json_uses_the_bundled_inputs_and_calibrated_limits(gradescope_dir):
+    put(gradescope_dir, *sorted(KEY.glob("q2_*.ipynb")))
+    data = run_autograder(gradescope_dir)
+    assert_valid_results(data)
+    timing = data["extra_data"]["timing"]
+    assert timing["hidden_inputs"] == "bundled" and timing["slowness"] >= 1 and timing["time_scale"] > 0
+    assert {t["visibility"] for t in data["tests"] if "score" in t} == {"visible"}
+    assert {t["visibility"] for t in data["tests"] if "score" not in t} <= {"after_published", "hidden"}
+    assert "Base points:" in data["output"]
+
+
+@pytest.mark.slow
+def test_every_function_hanging_still_gets_feedback_per_test(gradescope_dir, tmp_path):
+    from tests.corpus.hangs import build_all_hang
+
+    put(gradescope_dir, *sorted(build_all_hang(tmp_path / "hang").glob("*.ipynb")))
+    data = run_autograder(gradescope_dir)
+    assert_valid_results(data)
+    assert data["extra_data"]["failure"] is None and data["score"] == 0
+    checks = [t for t in data["tests"] if "score" not in t]
+    assert checks and all(t["status"] == "failed" for t in checks)
+    assert all("took more than" in t["output"] or "not run" in t["output"] or "did not finish" in t["output"]
+               or "time" in t["output"] for t in checks), [t["output"] for t in checks]
