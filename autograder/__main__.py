@@ -2,7 +2,18 @@
 
   grade SUBMISSION... --out DIR [--jobs N]   grade folders or .zip files of notebooks into DIR
         [--hidden-dir PATH]                   (with more hidden checks: pytest tests, see autograder/hidden)
+        [--official-data DIR]                 (also on the official course data; never unless asked)
+        [--regrade NAME...] [--regrade-all]   (grade these students again / everyone, even into a folder
+                                              of another configuration)
+        [--regrade-into NEW_DIR]              (grade again beside DIR and write regrade_diff.* in NEW_DIR)
+  regrade OLD_DIR --into NEW_DIR [SUB...]     the same: grade OLD_DIR's class again, with the diff
+  accept NEW_DIR --into OLD_DIR               publish a regrade (OLD_DIR's results kept in .history/)
   key --out DIR                               write the answer-key submission (scores full marks)
+
+A batch resumes: results of the same content and configuration are kept; failures, internal
+errors and submissions that were in flight when a grader died are graded again.  Ctrl-C stops it
+(grades.csv written for what finished; a second Ctrl-C exits at once).  An --out folder holds one
+configuration (grader and kit version, secret, data, settings, hidden tests): another is refused.
 
   gradescope ...                              build the Gradescope autograder zip, or run inside it
   nbgrader ...                                build an nbgrader course graded by the hidden checks
@@ -13,6 +24,8 @@ The commands are listed in ``COMMANDS``; ``gradescope`` and ``nbgrader`` add the
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
 from pathlib import Path
 
@@ -20,23 +33,100 @@ from core.commands import Command
 from core.commands import build_parser as _build_parser
 from core.commands import run
 
+from .sandbox.model import LEVELS
 
-def _grade(args) -> int:
+
+def _config(args):
     from .config import load_config
-    from .batch import grade_batch
 
-    config = load_config(args.config)
+    config = load_config(args.config, official_data=args.official_data)
     if config.is_dev:
         print("warning: grading with the development secret, so the hidden scenes are the public "
-              "defaults; set HW4_GRADER_SECRET or HW4_GRADER_CONFIG for real grading", file=sys.stderr)
-    records = grade_batch(args.submissions, args.out, jobs=args.jobs, config=config, resume=not args.no_resume,
-                          progress=not args.quiet, isolation=args.isolation, extra_tests=args.hidden_dir)
+              "defaults; set HW4_GRADER_SECRET or HW4_GRADER_CONFIG for real grading (summary.md says so)",
+              file=sys.stderr)
+    if config.official_dir() is not None:
+        print(f"grading on the official course data too: {config.official_dir()}", file=sys.stderr)
+    return config
+
+
+def _batch_errors(run):
+    """Run ``run()``; a refused folder or Ctrl-C become a message and an exit code."""
+    from .batch import BatchInterrupted, ConfigurationMismatch
+
+    try:
+        return run()
+    except ConfigurationMismatch as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except BatchInterrupted as exc:
+        signal.signal(signal.SIGINT, lambda *_: os._exit(130))  # everything is recorded: another Ctrl-C just exits
+        print(f"\ninterrupted: {len(exc.records)} submissions recorded, {len(exc.cancelled)} cancelled and not "
+              f"recorded ({', '.join(exc.cancelled) or 'none'}); run the same command again to resume",
+              file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:
+        print("\ninterrupted before any submission was graded", file=sys.stderr)
+        return 130
+
+
+def _grade(args) -> int:
+    if args.regrade_into:
+        return _regrade_run(args, args.out, args.regrade_into, args.submissions)
+    return _batch_errors(lambda: _grade_run(args))
+
+
+def _grade_options(args, config) -> dict:
+    return {"jobs": args.jobs, "config": config, "progress": not args.quiet, "isolation": args.isolation,
+            "extra_tests": args.hidden_dir}
+
+
+def _grade_run(args) -> int:
+    from .batch import grade_batch
+
+    config = _config(args)
+    records = grade_batch(args.submissions, args.out, resume=not args.no_resume, regrade=args.regrade or (),
+                          regrade_all=args.regrade_all, **_grade_options(args, config))
     graded = sum(not r.skipped for r in records)
     failed = [r.name for r in records if r.failure]
     print(f"{len(records)} submissions ({graded} graded now, {len(records) - graded} already done); "
           f"results in {Path(args.out) / '<name>'}, grades in {Path(args.out) / 'grades.csv'}")
     if failed:
         print(f"could not be graded: {', '.join(failed)} (see their feedback.md and grading.json)")
+    if config.is_dev:
+        print("graded with the DEVELOPMENT secret: not for publishing")
+    return 0
+
+
+def _regrade(args) -> int:
+    return _regrade_run(args, args.old, args.into, args.submissions or None)
+
+
+def _regrade_run(args, old, new, paths) -> int:
+    from .regrade import regrade
+
+    def run() -> int:
+        report = regrade(old, new, paths, **_grade_options(args, _config(args)))
+        moved = sorted({c.student for c in report["changes"]})
+        print(f"regraded {len(report['records'])} submissions into {new}; {len(moved)} changed score"
+              + (f": {', '.join(moved)}" if moved else ""))
+        if report["configuration_changes"]:
+            print("configuration changes: " + "; ".join(report["configuration_changes"]))
+        print(f"diff: {report['files']['md']} (and .csv, .html); publish with: "
+              f"python -m autograder accept {new} --into {old}")
+        return 0
+
+    return _batch_errors(run)
+
+
+def _accept(args) -> int:
+    from .regrade import accept
+
+    try:
+        history = accept(args.new, args.into)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"published the regrade of {args.new} into {args.into}; the earlier results are in {history}")
     return 0
 
 
@@ -50,22 +140,47 @@ def _key(args) -> int:
         from .batch import grade_batch
 
         record = grade_batch([path], Path(args.out) / "graded", config=load_config(args.config),
-                             resume=False, progress=False)[0]
+                             resume=False, progress=False, regrade_all=True)[0]
         print(f"graded: {record.score:g} points ({record.folder / 'feedback.md'})")
     return 0
+
+
+def _common_arguments(p) -> None:
+    p.add_argument("--jobs", type=int, default=1, help="submissions graded at once (default 1)")
+    p.add_argument("--config", default=None, help="grader settings (JSON; default: $HW4_GRADER_CONFIG)")
+    p.add_argument("--official-data", default=None, metavar="DIR",
+                   help="also grade on the official course data in DIR (default: only if $HW4_COURSE_DATA is set)")
+    p.add_argument("--isolation", default="auto", choices=["auto", *LEVELS],
+                   help="sandbox level (default: the strongest that works here)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--hidden-dir", default=None,
+                   help="a folder of more hidden checks (pytest test files) to run with the kit's own")
 
 
 def _grade_arguments(p) -> None:
     p.add_argument("submissions", nargs="+", help="submission folders or .zip files")
     p.add_argument("--out", required=True, help="output folder: <out>/<name>/results.json, <out>/grades.csv")
-    p.add_argument("--jobs", type=int, default=1, help="submissions graded at once (default 1)")
-    p.add_argument("--config", default=None, help="grader settings (JSON; default: $HW4_GRADER_CONFIG)")
+    _common_arguments(p)
     p.add_argument("--no-resume", action="store_true", help="regrade submissions whose results exist")
-    p.add_argument("--isolation", default="auto", choices=["auto", "namespaces", "user-namespaces", "basic"],
-                   help="sandbox level (default: the strongest that works here)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--hidden-dir", default=None,
-                   help="a folder of more hidden checks (pytest test files) to run with the kit's own")
+    p.add_argument("--regrade", nargs="+", metavar="NAME", default=None,
+                   help="grade these submissions (gradebook names) again, resume the others")
+    p.add_argument("--regrade-all", action="store_true",
+                   help="grade everything again, even into a folder of another configuration (its results are "
+                        "moved to <out>/.superseded-<time>/)")
+    p.add_argument("--regrade-into", default=None, metavar="NEW_DIR",
+                   help="grade the class of --out again into NEW_DIR and write the diff there (--out untouched)")
+
+
+def _regrade_arguments(p) -> None:
+    p.add_argument("old", help="the published folder of graded results")
+    p.add_argument("--into", required=True, help="the new folder (results and regrade_diff.csv/.md/.html)")
+    p.add_argument("submissions", nargs="*", help="submissions (default: the ones recorded in OLD's results)")
+    _common_arguments(p)
+
+
+def _accept_arguments(p) -> None:
+    p.add_argument("new", help="the regrade folder")
+    p.add_argument("--into", required=True, help="the published folder it replaces")
 
 
 def _key_arguments(p) -> None:
@@ -79,6 +194,10 @@ def _key_arguments(p) -> None:
 COMMANDS = {
     "grade": Command(__name__, "_grade", "grade submissions (folders or .zip files of notebooks)",
                      arguments="_grade_arguments"),
+    "regrade": Command(__name__, "_regrade", "grade a graded class again beside it, with a diff of the scores",
+                       arguments="_regrade_arguments"),
+    "accept": Command(__name__, "_accept", "publish a regrade: replace the published results with it",
+                      arguments="_accept_arguments"),
     "key": Command(__name__, "_key", "write the answer-key submission (a folder and a .zip)",
                    arguments="_key_arguments", needs=("nbformat",), install="pip install nbformat"),
     "gradescope": Command("autograder.gradescope", help="build the Gradescope autograder zip, or run inside it",

@@ -618,18 +618,20 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
                     pass
             for name in cancelled:
                 journal.clear(name)  # not the student's fault: graded again on resume, no strike
+        if not cancel.is_set():
+            for _ in threads:
+                tasks.put(None)
+            for t in threads:
+                t.join()
+        for box in boxes:
+            box.close()
+        ordered = write_gradebook()  # a second signal until here exits at once, with grades.csv written
     finally:
         for _ in threads:
             tasks.put(None)
         for sig, old in handlers.items():
             signal.signal(sig, old)
         bar.close()
-    if not cancel.is_set():
-        for t in threads:
-            t.join()
-    for box in boxes:
-        box.close()
-    ordered = write_gradebook()
     if cancel.is_set():
         raise BatchInterrupted(ordered, cancelled)
     return ordered

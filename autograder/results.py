@@ -244,7 +244,8 @@ class SubmissionResult:
             "visibility": "visible",
             "stdout_visibility": "hidden",  # the grader's log is for staff only
             "tests": [],
-            "extra_data": {"isolation": self.isolation, "failure": self.failure},
+            "extra_data": {"isolation": self.isolation, "failure": self.failure,
+                           "configuration": _public_configuration(self.configuration)},
         }
         if self.execution_time is not None:
             out["execution_time"] = round(float(self.execution_time), 3)
