@@ -233,7 +233,7 @@ def folder_configuration(out: Path) -> dict | None:
 def _check_folder(out: Path, record: dict, regrade_all: bool, stamp: str) -> str:
     """Refuse another configuration's folder (or, with ``regrade_all``, move its results aside)."""
     found = folder_configuration(out)
-    if found is None or found.get("key") == record["key"]:
+    if found is None or found.get("key") == record["key"] or not any(out.glob("*/grading.json")):
         return ""
     why = configuration_changes(found, record) or ["the configuration key differs"]
     if not regrade_all:

@@ -129,3 +129,21 @@ def test_csv_rows_line_up_with_the_header(tmp_path):
     assert float(row["Q2"]) == 5.5 and float(row["Q3.2"]) == 0
     assert float(row["total"]) == pytest.approx(sum(float(row[q]) for q in ids))
     assert rows[2][:2] == ["b2", "0"]
+
+
+def test_configuration_is_recorded_round_trips_and_keeps_results_json_valid(tmp_path):
+    from dataclasses import replace
+
+    from autograder.config import configuration, quick_config
+
+    record = {**configuration(quick_config()), "isolation": "namespaces"}
+    result = replace(sample(), configuration=record)
+    assert SubmissionResult.from_dict(json.loads(json.dumps(result.to_dict()))) == result
+    data = json.loads(result.write_gradescope(tmp_path / "results.json").read_text())
+    shown = data["extra_data"]["configuration"]
+    assert shown["key"] == record["key"] and shown["isolation"] == "namespaces" and "files" not in shown["tests"]
+    assert quick_config().secret not in json.dumps(data)
+    failed = SubmissionResult.failed("broken", configuration=record)
+    assert failed.to_gradescope()["extra_data"]["configuration"]["secret_fingerprint"] == record["secret_fingerprint"]
+    assert "Graded by grader" in result.feedback_markdown(audience="staff")
+    assert "Graded by grader" not in result.feedback_markdown()
