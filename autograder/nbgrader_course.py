@@ -1,65 +1,68 @@
-"""An nbgrader course for the homework, graded by the kit's own autograder.
+"""An nbgrader course for the homework, scored by the kit's own sandboxed grader outside nbgrader.
 
 ``python -m autograder nbgrader --out COURSE_DIR`` writes a course directory for nbgrader 0.9:
 
 =============================  ================================================================
-``nbgrader_config.py``         course id, gradebook, execution timeout, and ``KitScores`` (below)
-                               right after nbgrader's Execute step of ``autograde``
+``nbgrader_config.py``         course id, gradebook, execution timeout
 ``source/hw4/<stem>.ipynb``    ``notebooks/nbgrader/source/hw4`` with, under every autograded
-                               question, one hidden-check cell worth the manifest's points; the
-                               public self-check cells become read-only (students keep them,
-                               they no longer carry points, so a question is never counted twice)
-``starter/ scenes/ data/``     what the notebooks import and load: their setup cell finds the kit
-                               in a parent folder of the notebook
-``autograder/ solutions/``     the grader (what ``python -m autograder gradescope`` ships too)
-``kit/``
-``grader_config.json``         the instructor's grading settings at build time: the secret every
-                               hidden seed derives from (mode 600)
+                               question, one hidden-check cell: worth the manifest's points, or
+                               0 points for an extra-credit question (its points go to nbgrader's
+                               ``extra_credit``); the public self-check cells become read-only
+                               (students keep them, they carry no points)
+``core/ scenes/ starter/``     what the notebooks import and load (``core.shipping``'s sandbox
+``judging/ data/``             packages): their setup cell finds them in a parent folder
 =============================  ================================================================
 
-Then, in that folder, the usual nbgrader steps: ``nbgrader generate_assignment hw4``, collect the
-submissions into ``submitted/<student>/hw4/``, ``nbgrader autograde hw4``, ``nbgrader
-generate_feedback hw4``, ``nbgrader export``.  ``--selftest`` runs them with the answer key as a
-student and reports its score.
+No grader code, reference solution or grading secret is in the course: the kernel that nbgrader
+starts for a student's notebook runs that student's code with the instructor's rights, and can
+read or change anything in the course.
+
+The workflow, in the course folder: ``nbgrader generate_assignment hw4``, collect the submissions
+into ``submitted/<student>/hw4/``, ``nbgrader autograde hw4``, then
+
+    python -m autograder nbgrader-grade COURSE_DIR [--assignment hw4] [--student NAME...]
+
+(from the instructor's kit, with the grading settings of ``python -m autograder grade``), then
+``nbgrader generate_feedback hw4`` and ``nbgrader export``.  ``--selftest`` runs them all with the
+answer key as a student and reports its score.
 
 How a hidden-check cell is scored
 ---------------------------------
-The cell holds no inputs and no expected answers: between nbgrader's ``BEGIN/END HIDDEN TESTS``
-markers it only calls :func:`hidden_score` with the question id.  During ``nbgrader autograde``
-the points come from :class:`KitScores`, a preprocessor that runs in nbgrader's own process after
-the notebook has been executed: it grades the student's submitted notebooks with
-``grade_submission`` (the same code as ``python -m autograder grade`` and Gradescope; student
-code runs in the sandbox, with the course folder hidden from it) and replaces the cell's outputs
-with that question's feedback and its points (nbgrader's partial credit: a number as the cell's
-result).  What the student's code did inside the kernel, which it shares with nbgrader's tests,
-cannot change those points.  Run outside ``autograde`` (by hand, ``nbgrader validate``), the cell
-grades the notebooks of its own folder in the kernel and shows the points.
+The cell holds no grading code: between nbgrader's ``BEGIN/END HIDDEN TESTS`` markers it is the
+literal ``0.0``, so ``nbgrader autograde`` records 0 points for it whatever the kernel does (or full
+marks only if the kernel fakes its output: either way the next step overwrites it).
+``nbgrader-grade`` (:func:`grade_course`), a separate process of the instructor's kit started
+after autograde, grades each student's submitted folder with ``grade_submission`` (the same code
+as ``python -m autograder grade`` and Gradescope; student code runs in the sandbox, the course
+folder hidden from it) and writes the points into the gradebook through nbgrader's own API
+(``nbgrader.api.Gradebook``: the ``Grade`` of each hidden-check cell gets ``auto_score``, or
+``extra_credit`` for an extra-credit question), and the question's feedback into that cell's
+output in ``autograded/``, which ``generate_feedback`` shows.  Nothing the kernel did, to the
+notebook, to its own imports or to the course's files, enters those points.
 
-What nbgrader itself cannot protect (why the kit has its own grader): nbgrader runs student code
-with the instructor's rights in the kernel that also runs the tests, so that code can patch
-the tests' tools (``numpy.allclose``), read ``source/`` (the hidden tests), the configuration and
-``gradebook.db``, write files, and leave processes running.  Here the hidden tests say nothing a
-student could use, the scores do not come from the kernel, and student code that grading runs is
-sandboxed; but student code still runs unsandboxed in nbgrader's kernel, so grade untrusted
-submissions on a machine (or container) that holds nothing else of value.
+What nbgrader itself cannot protect: student code in nbgrader's kernel can read and write what
+the instructor can (other students' files, ``gradebook.db``, the course's copies of ``starter/``),
+and leave processes running.  The scores survive that (they come from the submitted files, the
+instructor's kit and its sandbox, and are written after autograde), but run ``nbgrader
+autograde`` on untrusted submissions on a machine or container that holds nothing else of value.
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime as _dt
-import os
 import shutil
 import subprocess
 import sys
 import tempfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from core.manifest import NOTEBOOKS, QUESTIONS, Question, question
+from core.manifest import NOTEBOOKS, QUESTIONS, Question
 
-from .gradescope import CONFIG_NAME, KIT_ROOT, config_file, data_files, grader_files, hideable
+from core.shipping import SANDBOX_PACKAGES
+
+from .gradescope import KIT_ROOT, _package_files, data_files, hideable
 
 if TYPE_CHECKING:
     import nbformat
@@ -67,16 +70,16 @@ if TYPE_CHECKING:
 __all__ = [
     "ASSIGNMENT",
     "COURSE_ID",
+    "COURSE_PACKAGES",
     "HIDDEN_PREFIX",
-    "KitScores",
-    "QuestionScore",
     "add_cli",
+    "add_grade_cli",
     "add_hidden_checks",
     "autograded_scores",
     "build_course",
-    "hidden_score",
+    "grade_course",
+    "kit_scores",
     "run_nbgrader",
-    "score_questions",
     "selftest",
     "submit_key",
     "submit_release",
@@ -89,6 +92,8 @@ SOURCE_DIR = Path("notebooks") / "nbgrader" / "source" / ASSIGNMENT
 _BEGIN_HIDDEN, _END_HIDDEN = "### BEGIN HIDDEN TESTS", "### END HIDDEN TESTS"
 _BEGIN_SOLUTION, _END_SOLUTION = "### BEGIN SOLUTION", "### END SOLUTION"
 _EXECUTE_TIMEOUT = 300   # seconds per cell; the slowest reference cell takes a few seconds
+COURSE_PACKAGES = SANDBOX_PACKAGES  # what the notebooks import: the packages student code may use
+_PLACEHOLDER = "0.0"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -113,19 +118,19 @@ def _question_of_grade_id(grade_id: str) -> Question | None:
 def _hidden_cell(q: Question, stem: str) -> nbformat.NotebookNode:
     import nbformat
 
-    credit = ", extra credit" if q.extra_credit else ""
+    credit = f"{q.points} points of extra credit" if q.extra_credit else f"{q.points} points"
     text = "\n".join([
-        f"# {q.id}: hidden checks [{q.points} points{credit}].  The course's autograder runs your",
-        "# functions on inputs you have not seen; this cell shows its points once your notebook is graded.",
+        f"# {q.id}: hidden checks [{credit}].  The course's autograder runs your functions on inputs",
+        "# you have not seen, outside this notebook; its points and feedback appear here once your work is graded.",
         _BEGIN_HIDDEN,
-        "from autograder.nbgrader_course import hidden_score",
-        "",
-        f'hidden_score("{q.id}")',
+        f"{_PLACEHOLDER}  # no grading code here: the points are written into the gradebook after autograding",
         _END_HIDDEN,
     ])
     cell = nbformat.v4.new_code_cell(text)
+    # Extra credit is worth 0 in nbgrader's totals; grade_course puts its points in extra_credit.
     cell.metadata = {"nbgrader": {"grade": True, "grade_id": _grade_id_of(q.id), "locked": True,
-                                  "points": q.points, "schema_version": 3, "solution": False, "task": False}}
+                                  "points": 0 if q.extra_credit else q.points, "schema_version": 3,
+                                  "solution": False, "task": False}}
     cell["id"] = f"{stem}-{_grade_id_of(q.id)}".replace("_", "-")[:64]
     return cell
 
@@ -133,8 +138,8 @@ def _hidden_cell(q: Question, stem: str) -> nbformat.NotebookNode:
 def add_hidden_checks(nb: nbformat.NotebookNode, stem: str) -> nbformat.NotebookNode:
     """The nbgrader source notebook ``nb`` of ``stem`` with the kit's hidden checks (a new notebook).
 
-    Every autograded question of ``stem`` gets one hidden-check cell worth the manifest's points,
-    after the last cell of that question's functions (solution or public check).  The public
+    Every autograded question of ``stem`` gets one hidden-check cell worth the manifest's points
+    (0 for extra credit, which ``grade_course`` records as nbgrader's extra credit), after the last cell of that question's functions (solution or public check).  The public
     check cells (``grade_id`` ``check_<function>``) stop being graded and stay locked, so the
     notebook's autograded points add up to the manifest's; by-hand answers keep theirs.
 
@@ -171,29 +176,12 @@ def add_hidden_checks(nb: nbformat.NotebookNode, stem: str) -> nbformat.Notebook
 
 
 # ------------------------------------------------------------------------------------------------
-# scoring with the kit's grader
-
-
-@dataclass(frozen=True)
-class QuestionScore:
-    """The kit grader's verdict on one question: points, out of, and feedback for the student."""
-
-    qid: str
-    score: float
-    max_score: float
-    feedback: str
-
-
-def _fingerprint(folder: Path) -> tuple:
-    return tuple(sorted((p.relative_to(folder).as_posix(), p.stat().st_size, p.stat().st_mtime_ns)
-                        for p in folder.rglob("*") if p.is_file()))
-
-
-_CACHE: dict[tuple, dict[str, QuestionScore]] = {}
+# scoring with the kit's grader, outside nbgrader
 
 
 def _describe(q) -> str:
-    lines = [f"{q.id} {q.title}: {q.score:g} / {q.max_score:g} points"]
+    credit = " (extra credit)" if q.extra_credit else ""
+    lines = [f"{q.id} {q.title}: {q.score:g} / {q.max_score:g} points{credit}"]
     lines += [f"- {n}" for n in q.notes]
     hidden = [t for t in q.tests if t.visibility == "hidden"]
     for t in q.tests:
@@ -206,44 +194,9 @@ def _describe(q) -> str:
     return "\n".join(lines)
 
 
-def score_questions(folder: str | Path, qids, *, course_root: str | Path | None = None) -> dict[str, QuestionScore]:
-    """Grade the notebooks in ``folder`` with the kit's grader; the verdicts on ``qids``.
-
-    The whole folder is graded once (cached while its files do not change), because a notebook
-    may use functions of another one.  Student code runs in the sandbox; ``course_root`` (default:
-    the kit this module belongs to) is hidden from it.
-
-    Raises
-    ------
-    ValueError
-        For an unknown or by-hand question id.
-    """
-    wanted = []
-    for qid in qids:
-        q = question(qid)
-        if q.by_hand:
-            raise ValueError(f"qids: expected autograded questions, got {qid} (graded by hand)")
-        wanted.append(q)
-    folder = Path(folder).resolve()
-    root = Path(course_root).resolve() if course_root is not None else KIT_ROOT
-    key = (str(folder), str(root), _fingerprint(folder) if folder.is_dir() else ())
-    if key not in _CACHE:
-        _CACHE[key] = _grade_folder(folder, root)
-    return {q.id: _CACHE[key][q.id] for q in wanted}
-
-
-def _grade_folder(folder: Path, root: Path) -> dict[str, QuestionScore]:
-    from .config import load_config
-    from .grade import grade_submission
-    from .sandbox import Sandbox
-    from .hidden.inputs import build_hidden_inputs
-
-    bundled = root / CONFIG_NAME
-    # In a course folder only its own settings count; in the kit, the instructor's environment.
-    config = load_config(bundled, environ={}) if bundled.is_file() else load_config()
-    # All of the course: gradebook, settings, source/ and every student's submission.
-    with Sandbox(root, hidden=hideable([root, folder, config.source, config.official_dir()])) as box:
-        result = grade_submission(folder, sandbox=box, hidden_inputs=build_hidden_inputs(config))
+def _verdicts(result) -> dict[str, tuple[float, str]]:
+    """qid -> (points, feedback) of every autograded question of ``result`` (zero with the reason
+    for a question that was not graded)."""
     by_id = {q.id: q for q in result.questions}
     out = {}
     for q in QUESTIONS:
@@ -251,92 +204,111 @@ def _grade_folder(folder: Path, root: Path) -> dict[str, QuestionScore]:
             continue
         if result.failure or q.id not in by_id:
             why = result.failure or "not graded"
-            out[q.id] = QuestionScore(q.id, 0.0, float(q.points), f"{q.id} {q.title}: 0 / {q.points} points ({why})")
+            out[q.id] = (0.0, f"{q.id} {q.title}: 0 / {q.points} points ({why})")
         else:
-            qr = by_id[q.id]
-            out[q.id] = QuestionScore(q.id, float(qr.score), float(qr.max_score), _describe(qr))
+            out[q.id] = (float(by_id[q.id].score), _describe(by_id[q.id]))
     return out
 
 
-def hidden_score(qid: str) -> float:
-    """The points of question ``qid``, for the last line of a hidden-check cell (in the kernel).
-
-    During ``nbgrader autograde`` this returns 0 at once: :class:`KitScores` then writes the
-    real points, computed outside the kernel.  Otherwise it grades the notebooks of the current
-    folder as saved on disk, prints the feedback and returns the points.
-    """
-    q = question(qid)
-    if os.environ.get("NBGRADER_EXECUTION") == "autograde":
-        print(f"{q.id}: scored outside this notebook by the course's autograder.")
-        return 0.0
-    verdict = score_questions(Path.cwd(), [q.id])[q.id]
-    print(verdict.feedback)
-    return verdict.score
+def _students(course: Path, assignment: str, students) -> list[str]:
+    found = sorted(p.parent.name for p in (course / "submitted").glob(f"*/{assignment}") if p.is_dir())
+    if students is None:
+        return found
+    missing = [s for s in students if s not in found]
+    if missing:
+        raise ValueError(f"students: expected names with a folder submitted/<name>/{assignment}, got {missing}")
+    return list(students)
 
 
-def _fill_hidden_cells(nb, resources, config, log):
-    """What KitScores does (see there); ``config`` is nbgrader's, ``log`` a logging.Logger."""
+def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict) -> None:
+    """The kit's feedback as the output of each hidden-check cell of the autograded notebooks."""
     import nbformat
-    from nbgrader.coursedir import CourseDirectory
 
-    info = resources.get("nbgrader", {})
-    coursedir = CourseDirectory(config=config)
-    folder = Path(coursedir.format_path(coursedir.submitted_directory, info["student"], info["assignment"]))
-    cells = [(cell, _question_of_grade_id(_nbgrader(cell).get("grade_id", ""))) for cell in nb.cells]
-    cells = [(cell, q) for cell, q in cells if q is not None and cell.cell_type == "code"]
-    if not cells:
-        return nb, resources
-    try:
-        verdicts = score_questions(folder, [q.id for _, q in cells], course_root=coursedir.root)
-    except Exception as exc:  # noqa: BLE001 - a grader failure must cost points visibly, not stop the batch
-        log.exception("KitScores could not grade %s", folder)
-        for cell, _ in cells:
-            # An error output: nbgrader gives the cell zero, and the staff see why.
-            cell.outputs = [nbformat.v4.new_output(
-                "error", ename="GradingError", evalue=f"the course's autograder could not run ({type(exc).__name__})",
-                traceback=[])]
-        return nb, resources
-    for cell, q in cells:
-        v = verdicts[q.id]
-        points = min(max(v.score, 0.0), float(_nbgrader(cell).get("points", v.max_score)))
-        cell.outputs = [
-            nbformat.v4.new_output("stream", name="stdout", text=v.feedback + "\n"),
-            nbformat.v4.new_output("execute_result", data={"text/plain": repr(points)},
-                                   execution_count=cell.get("execution_count")),
-        ]
-    log.info("KitScores: %s", ", ".join(f"{q.id} {verdicts[q.id].score:g}" for _, q in cells))
-    return nb, resources
+    for path in sorted((course / "autograded" / student / assignment).glob("*.ipynb")):
+        nb = nbformat.read(path, as_version=4)
+        changed = False
+        for cell in nb.cells:
+            q = _question_of_grade_id(_nbgrader(cell).get("grade_id", ""))
+            if q is not None and cell.cell_type == "code":
+                cell.outputs = [nbformat.v4.new_output("stream", name="stdout", text=verdicts[q.id][1] + "\n")]
+                changed = True
+        if changed:
+            nbformat.write(nb, path)
 
 
-def _make_kit_scores():
-    from nbconvert.preprocessors import Preprocessor
-    from traitlets import Bool
+def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=None, config=None,
+                 isolation: str = "auto", progress=None) -> dict:
+    """Grade every submission of ``assignment`` with the kit's grader and write the points into
+    the course's gradebook; run after ``nbgrader autograde``.  Returns student -> SubmissionResult.
 
-    class KitScores(Preprocessor):
-        """nbgrader autograde step: the kit grader's points into the hidden-check cells.
+    Each ``submitted/<student>/<assignment>`` folder is graded with ``grade_submission`` (the
+    instructor's kit, never the course's files; student code in the sandbox with the course
+    folder hidden).  Then, through ``nbgrader.api.Gradebook``, every hidden-check cell's ``Grade``
+    gets the question's points as ``auto_score`` (extra credit: ``auto_score`` 0 and the points as
+    ``extra_credit``), replacing whatever autograde recorded, and the question's feedback becomes
+    that cell's output in ``autograded/`` (what ``generate_feedback`` shows).
 
-        Placed right after nbgrader's ``Execute`` (see the course's nbgrader_config.py).  It
-        grades the student's folder ``submitted/<student>/<assignment>`` and gives every cell
-        whose ``grade_id`` is ``hidden_<question>`` a stdout stream with the feedback and an
-        execute_result with the points, replacing whatever the kernel produced there.
-        """
+    Parameters
+    ----------
+    course : the nbgrader course folder (with nbgrader_config.py and gradebook.db).
+    students : names to grade (default: every submitted folder of ``assignment``).
+    config : ``GradingConfig`` (default: ``load_config()``, as ``python -m autograder grade``).
+    isolation : the sandbox level ("auto": the strongest that works here).
+    progress : optional callable(student, result) called after each student.
 
-        enabled = Bool(True).tag(config=True)
+    Raises
+    ------
+    ValueError
+        When ``course`` has no gradebook or a named student has no submission, or a student
+        graded here was not autograded by nbgrader first (no submission in the gradebook).
+    """
+    from nbgrader.api import Gradebook, MissingEntry
 
-        def preprocess(self, nb, resources):
-            return _fill_hidden_cells(nb, resources, self.config, self.log)
+    from .config import load_config
+    from .grade import grade_submission
+    from .hidden.inputs import build_hidden_inputs
+    from .sandbox import Sandbox
 
-    KitScores.__module__ = __name__
-    return KitScores
-
-
-def __getattr__(name: str):
-    # KitScores subclasses nbconvert's Preprocessor; made on first use so that importing this
-    # module (every `python -m autograder` command does) does not load nbconvert.
-    if name == "KitScores":
-        cls = globals()["KitScores"] = _make_kit_scores()
-        return cls
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    course = Path(course).resolve()
+    db = course / "gradebook.db"
+    if not (course / "nbgrader_config.py").is_file() or not db.is_file():
+        raise ValueError(f"course: expected an nbgrader course with gradebook.db (run nbgrader autograde first), got {course}")
+    names = _students(course, assignment, students)
+    config = config if config is not None else load_config()
+    hidden = build_hidden_inputs(config)
+    results = {}
+    with Gradebook(f"sqlite:///{db}", COURSE_ID) as gb:
+        for student in names:
+            try:
+                gb.find_submission(assignment, student)
+            except MissingEntry:
+                raise ValueError(f"students: {student} has no autograded submission of {assignment} in "
+                                 f"the gradebook; run nbgrader autograde first") from None
+    with Sandbox(KIT_ROOT, hidden=hideable([course, config.source, config.official_dir()]), isolation=isolation) as box:
+        for student in names:
+            folder = course / "submitted" / student / assignment
+            result = grade_submission(folder, sandbox=box, hidden_inputs=hidden, student_id=student)
+            results[student] = result
+            verdicts = _verdicts(result)
+            with Gradebook(f"sqlite:///{db}", COURSE_ID) as gb:
+                submission = gb.find_submission(assignment, student)
+                for notebook in submission.notebooks:
+                    for grade in notebook.grades:
+                        q = _question_of_grade_id(grade.name)
+                        if q is None:
+                            continue
+                        score = verdicts[q.id][0]
+                        if q.extra_credit:
+                            grade.auto_score, grade.extra_credit = 0.0, score
+                        else:
+                            grade.auto_score, grade.extra_credit = min(score, float(grade.max_score)), None
+                        grade.manual_score = None
+                        grade.needs_manual_grade = False
+                gb.db.commit()
+            _write_feedback(course, assignment, student, verdicts)
+            if progress is not None:
+                progress(student, result)
+    return results
 
 
 # ------------------------------------------------------------------------------------------------
@@ -344,47 +316,38 @@ def __getattr__(name: str):
 
 _CONFIG = '''\
 # nbgrader configuration of the hw4 course, written by `python -m autograder nbgrader`.
-import sys
+# The hidden checks are scored after `nbgrader autograde` by `python -m autograder nbgrader-grade`.
 from pathlib import Path
 
 _course = Path(__file__).resolve().parent
-if str(_course) not in sys.path:
-    sys.path.insert(0, str(_course))  # the course's copy of the kit, for KitScores
-
-from nbgrader.converters import Autograde
-from nbgrader.preprocessors import Execute
 
 c = get_config()  # noqa: F821 - traitlets defines it when it runs this file
 c.CourseDirectory.course_id = "{course_id}"
 c.CourseDirectory.root = str(_course)
 c.CourseDirectory.db_url = "sqlite:///" + str(_course / "gradebook.db")
 c.Execute.timeout = {timeout}
-
-# Right after the student's notebook has run, KitScores replaces the outputs of the hidden-check
-# cells with the points of the kit's grader (computed here, outside the student's kernel).
-_steps = list(Autograde.class_traits()["autograde_preprocessors"].default())
-_steps.insert(_steps.index(Execute) + 1, "autograder.nbgrader_course.KitScores")
-c.Autograde.autograde_preprocessors = _steps
 '''
 
 _README = '''\
 # hw4 nbgrader course
 
-Written by `python -m autograder nbgrader`.  Run every command in this folder.
+Written by `python -m autograder nbgrader`.  Run the nbgrader commands in this folder.
 
     nbgrader generate_assignment {assignment} --force    # release/{assignment}/: what students get
     # put each submission in submitted/<student>/{assignment}/ (with a timestamp.txt)
-    nbgrader autograde {assignment}                      # autograded/...; hidden checks by the kit's grader
+    nbgrader autograde {assignment}                      # autograded/...: runs the notebooks
+    python -m autograder nbgrader-grade COURSE --assignment {assignment}   # from the kit: the hidden checks' points
     nbgrader generate_feedback {assignment}              # feedback/<student>/{assignment}/*.html
     nbgrader export                            # grades.csv
 
-The hidden-check cells carry the points of the autograded questions; the public self-check
-cells are read-only and carry none.  Questions answered in writing are graded by hand
-(`nbgrader formgrader`).  Q6 is extra credit in the handout; nbgrader has no extra-credit cells,
-so its points count in nbgrader's total.
+The hidden-check cells carry the points of the autograded questions; the kit's sandboxed grader
+writes them into the gradebook after autograde (run nbgrader-grade again after any new autograde).
+Extra-credit questions (Q6) are worth 0 in nbgrader's totals and their points are recorded as
+nbgrader's extra credit.  The public self-check cells are read-only and carry no points.  Questions
+answered in writing are graded by hand (`nbgrader formgrader`).
 
-Student code runs unsandboxed in nbgrader's kernel: grade untrusted submissions on a machine
-that holds nothing else of value.
+Student code runs unsandboxed in nbgrader's kernel, with your rights: run autograde on untrusted
+submissions on a machine that holds nothing else of value.
 '''
 
 
@@ -406,24 +369,23 @@ def _source_notebooks(kit_root: Path, stems) -> dict[str, nbformat.NotebookNode]
     return out
 
 
-def build_course(out: str | Path, *, kit_root: str | Path = KIT_ROOT, stems=None, force: bool = False,
-                 allow_dev_secret: bool = False) -> Path:
+def build_course(out: str | Path, *, kit_root: str | Path = KIT_ROOT, stems=None, force: bool = False) -> Path:
     """Write the nbgrader course directory ``out`` (layout in the module docstring); return it.
 
     Parameters
     ----------
     out : the folder to write; it must not exist or be empty, unless ``force`` and it is a course
         folder written before (it holds nbgrader_config.py).
-    kit_root : the kit whose notebooks and grader are used (default: this one).
+    kit_root : the kit whose notebooks and student packages are used (default: this one).
     stems : the manifest notebooks to include (default: all of them, in manifest order).
     force : replace what ``out`` holds (the gradebook and submissions included).
-    allow_dev_secret : build with the public development secret (for trying the course out only).
+
+    The course holds no grader, reference solution or secret (``grade_course`` brings them).
 
     Raises
     ------
     ValueError
-        For an unknown stem, an ``out`` that holds files while ``force`` is False, or the
-        development secret without ``allow_dev_secret`` (see ``autograder.gradescope.config_file``).
+        For an unknown stem, or an ``out`` that holds files while ``force`` is False.
     """
     import nbformat
 
@@ -443,13 +405,11 @@ def build_course(out: str | Path, *, kit_root: str | Path = KIT_ROOT, stems=None
     notebooks = {stem: add_hidden_checks(nb, stem) for stem, nb in _source_notebooks(root, stems).items()}
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hw4-course-") as tmp:
-        settings = config_file(Path(tmp), allow_dev_secret=allow_dev_secret)
-        for name, path in grader_files(root) + data_files(root, Path(tmp)) + settings:
+        files = [(p.relative_to(root).as_posix(), p) for pkg in COURSE_PACKAGES for p in _package_files(root, pkg)]
+        for name, path in files + data_files(root, Path(tmp)):
             dest = out / name
             dest.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(path, dest)
-    # The secret of the hidden inputs is for the staff's eyes only.
-    os.chmod(out / CONFIG_NAME, 0o600)
     source = out / "source" / ASSIGNMENT
     source.mkdir(parents=True)
     for stem, nb in notebooks.items():
@@ -533,7 +493,8 @@ def submit_key(course: str | Path, student: str) -> Path:
 
 
 def autograded_scores(course: str | Path, student: str) -> dict[str, tuple[float, float]]:
-    """``grade_id -> (auto_score, max_score)`` of the autograded code cells of ``student``'s hw4."""
+    """``grade_id -> (score, max_score)`` of the autograded code cells of ``student``'s hw4, as
+    nbgrader counts them (``score`` includes the cell's extra credit)."""
     from nbgrader.api import Gradebook
 
     course = Path(course)
@@ -543,48 +504,108 @@ def autograded_scores(course: str | Path, student: str) -> dict[str, tuple[float
         for notebook in submission.notebooks:
             for grade in notebook.grades:
                 if grade.cell_type == "code":
-                    out[grade.name] = (float(grade.auto_score or 0.0), float(grade.max_score))
+                    out[grade.name] = (float(grade.score or 0.0), float(grade.max_score))
     return out
 
 
-def selftest(course: str | Path, student: str = "answer-key") -> tuple[float, float]:
-    """Run the whole nbgrader workflow in ``course`` with the answer key as ``student``.
+def kit_scores(course: str | Path, student: str) -> dict[str, float]:
+    """question id -> the points ``student``'s hidden-check cells hold in the gradebook (extra
+    credit included), for the questions of the course's notebooks."""
+    out = {}
+    for grade_id, (score, _) in autograded_scores(course, student).items():
+        q = _question_of_grade_id(grade_id)
+        if q is not None:
+            out[q.id] = score
+    return out
 
-    generate_assignment, the key's submission, autograde, generate_feedback and export; returns
-    the key's (points, out of) over the hidden-check cells.
+
+def selftest(course: str | Path, student: str = "answer-key", *, config=None) -> tuple[float, float]:
+    """Run the whole workflow in ``course`` with the answer key as ``student``.
+
+    generate_assignment, the key's submission, autograde, ``grade_course``, generate_feedback and
+    export; returns the key's (points, out of) over the hidden-check cells, extra credit included.
     """
     course = Path(course)
     run_nbgrader(course, "generate_assignment", ASSIGNMENT, "--force")
     submit_key(course, student)
     run_nbgrader(course, "autograde", ASSIGNMENT, "--force", f"--student={student}")
+    grade_course(course, students=[student], config=config)
     run_nbgrader(course, "generate_feedback", ASSIGNMENT, "--force", f"--student={student}")
     run_nbgrader(course, "export")
-    hidden = {k: v for k, v in autograded_scores(course, student).items() if k.startswith(HIDDEN_PREFIX)}
-    return sum(s for s, _ in hidden.values()), sum(m for _, m in hidden.values())
+    scores = kit_scores(course, student)
+    stems = {p.stem for p in (course / "source" / ASSIGNMENT).glob("*.ipynb")}
+    total = sum(q.points for q in QUESTIONS if q.notebook in stems and not q.by_hand)
+    return sum(scores.values()), float(total)
+
+
+def _grading_config(args):
+    from .config import ENV_CONFIG, ENV_SECRET, load_config
+
+    config = load_config(args.config)
+    if config.is_dev and not args.allow_dev_secret:
+        raise ValueError(f"secret: expected the course's own grading secret (set {ENV_SECRET}, or {ENV_CONFIG} "
+                         f"or --config to a config file), got the public development secret")
+    return config
 
 
 def _cli(args) -> int:
-    course = build_course(args.out, stems=args.notebooks, force=args.force, allow_dev_secret=args.allow_dev_secret)
+    course = build_course(args.out, stems=args.notebooks, force=args.force)
     print(f"wrote the nbgrader course {course}")
     if args.selftest:
-        score, total = selftest(course)
-        print(f"self-test: the answer key scores {score:g} / {total:g} on the hidden checks")
+        score, total = selftest(course, config=_grading_config(args))
+        print(f"self-test: the answer key scores {score:g} / {total:g} on the hidden checks (extra credit included)")
         return 0 if abs(score - total) < 1e-9 else 1
     print(f"next: cd {course} && nbgrader generate_assignment {ASSIGNMENT} --force  (see README.md)")
     return 0
 
 
-def add_cli(subparsers) -> None:
-    """Register ``python -m autograder nbgrader``."""
+def _grade_cli(args) -> int:
+    config = _grading_config(args)
+
+    def report(student, result):
+        why = f" (not graded: {result.failure})" if result.failure else ""
+        print(f"{student}: {result.score:g} points (base {result.max_score:g}, extra credit on top){why}")
+
+    results = grade_course(args.course, assignment=args.assignment, students=args.student, config=config,
+                           isolation=args.isolation, progress=None if args.quiet else report)
+    print(f"{len(results)} submissions scored into {Path(args.course) / 'gradebook.db'}; "
+          f"next: nbgrader generate_feedback {args.assignment} && nbgrader export")
+    return 0
+
+
+def add_grade_cli(subparsers) -> None:
+    """Register ``python -m autograder nbgrader-grade`` (once, whoever asks first)."""
+    if "nbgrader-grade" in subparsers.choices:
+        return
     p = subparsers.add_parser(
-        "nbgrader", help="write an nbgrader course directory graded by the kit's autograder",
+        "nbgrader-grade", help="score an nbgrader course's submissions with the kit's grader (after nbgrader autograde)",
+        description="Grade every submitted/<student>/<assignment> of an nbgrader course with the kit's sandboxed "
+                    "grader and write the hidden checks' points into its gradebook (run after nbgrader autograde, "
+                    "before generate_feedback and export).")
+    p.add_argument("course", help="the course folder (with nbgrader_config.py and gradebook.db)")
+    p.add_argument("--assignment", default=ASSIGNMENT, help=f"the assignment (default {ASSIGNMENT})")
+    p.add_argument("--student", nargs="+", default=None, metavar="NAME", help="only these students")
+    p.add_argument("--config", default=None, help="grader settings (JSON; default: $HW4_GRADER_CONFIG)")
+    p.add_argument("--allow-dev-secret", action="store_true", help="grade with the public development secret (trying out only)")
+    p.add_argument("--isolation", default="auto", choices=["auto", "namespaces", "user-namespaces", "basic"],
+                   help="sandbox level (default: the strongest that works here)")
+    p.add_argument("--quiet", action="store_true", help="no line per student")
+    p.set_defaults(func=_grade_cli)
+
+
+def add_cli(subparsers) -> None:
+    """Register ``python -m autograder nbgrader`` (and ``nbgrader-grade``, see ``add_grade_cli``)."""
+    p = subparsers.add_parser(
+        "nbgrader", help="write an nbgrader course directory scored by the kit's autograder",
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", required=True, help="the course folder to write")
     p.add_argument("--notebooks", nargs="+", default=None, metavar="STEM",
                    help=f"only these notebooks (default: all of {', '.join(NOTEBOOKS)})")
     p.add_argument("--force", action="store_true", help="replace what the folder holds (gradebook included)")
+    p.add_argument("--config", default=None, help="grader settings for --selftest (default: $HW4_GRADER_CONFIG)")
     p.add_argument("--allow-dev-secret", action="store_true",
-                   help="build even without the course's grading secret (HW4_GRADER_SECRET / HW4_GRADER_CONFIG)")
+                   help="--selftest even without the course's grading secret (HW4_GRADER_SECRET / HW4_GRADER_CONFIG)")
     p.add_argument("--selftest", action="store_true",
                    help="then run nbgrader end to end with the answer key as a student (needs nbgrader)")
     p.set_defaults(func=_cli)
+    add_grade_cli(subparsers)
