@@ -1,0 +1,144 @@
+"""Benchmark of the Gradescope channel at half a CPU: ``run_autograder`` on the answer key and on a
+submission whose every function hangs, in a folder laid out like /autograder, beside the answer key
+alone at full speed, in one run.  Target: the all-hang submission under 120 s at 0.5 vCPU.
+
+    python benchmarks/channels.py [--vcpu 0.5] [--keep DIR]
+
+0.5 vCPU is emulated with a cgroup (v1 ``cpu`` or v2 ``cpu.max``) whose quota is half of one CPU
+per period, holding run_autograder and everything it starts (the sandbox's children included);
+where no cgroup can be made (not root, read-only cgroupfs) with ``taskset -c 0`` and a competing
+busy loop on that CPU.  The line "emulation:" says which was used.  The bundle is built with the
+kit's default grading settings and the public development secret (timing only, never grading).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import zipfile
+from contextlib import contextmanager
+from pathlib import Path
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(KIT_ROOT))
+
+from autograder import gradescope  # noqa: E402
+from tests import corpus  # noqa: E402
+from tests.corpus.hangs import build_all_hang  # noqa: E402
+
+_PERIOD = 100_000  # microseconds
+
+
+def unpack(bundle: Path, root: Path) -> Path:
+    ag = root / "autograder"
+    source = ag / "source"
+    source.mkdir(parents=True)
+    with zipfile.ZipFile(bundle) as zf:
+        for info in zf.infolist():
+            path = Path(zf.extract(info, source))
+            mode = (info.external_attr >> 16) & 0o777
+            if mode:
+                path.chmod(mode)
+    (ag / "submission").mkdir()
+    (ag / "results").mkdir()
+    shutil.copy2(source / "run_autograder", ag / "run_autograder")
+    return ag
+
+
+@contextmanager
+def half_cpu(vcpu: float):
+    """(argv prefix, description) running a command at ``vcpu`` of one CPU."""
+    name = f"hw4-bench-{os.getpid()}"
+    v1 = Path("/sys/fs/cgroup/cpu")
+    v2 = Path("/sys/fs/cgroup")
+    quota = int(_PERIOD * vcpu)
+    folder = None
+    try:
+        if (v1 / "cpu.cfs_quota_us").is_file():
+            folder = v1 / name
+            folder.mkdir()
+            (folder / "cpu.cfs_period_us").write_text(str(_PERIOD))
+            (folder / "cpu.cfs_quota_us").write_text(str(quota))
+        elif (v2 / "cgroup.controllers").is_file() and "cpu" in (v2 / "cgroup.controllers").read_text():
+            folder = v2 / name
+            folder.mkdir()
+            (folder / "cpu.max").write_text(f"{quota} {_PERIOD}")
+    except OSError:
+        folder = None
+    if folder is not None:
+        try:
+            prefix = ["sh", "-c", f'echo $$ > {folder / "cgroup.procs"} && exec "$@"', "sh"]
+            yield prefix, f"cgroup {folder} (quota {quota} us per {_PERIOD} us)"
+        finally:
+            time.sleep(1)
+            try:
+                folder.rmdir()
+            except OSError as exc:
+                print(f"note: could not remove {folder}: {exc}")
+        return
+    if vcpu != 0.5:
+        raise SystemExit("vcpu: without cgroups only 0.5 can be emulated (taskset and one busy loop)")
+    busy = subprocess.Popen(["taskset", "-c", "0", sys.executable, "-c", "while True: pass"])
+    try:
+        yield ["taskset", "-c", "0"], "taskset -c 0 with a competing busy loop on CPU 0"
+    finally:
+        busy.kill()
+        busy.wait()
+
+
+def run(bundle: Path, submission: Path, work: Path, prefix: list[str]) -> dict:
+    ag = unpack(bundle, work)
+    for p in sorted(submission.glob("*.ipynb")):
+        shutil.copy2(p, ag / "submission" / p.name)
+    env = {**os.environ, "HW4_AUTOGRADER_ROOT": str(ag), "HW4_PYTHON": sys.executable}
+    t = time.monotonic()
+    subprocess.run([*prefix, "bash", str(ag / "run_autograder")], env=env, capture_output=True, timeout=1200, check=False)
+    seconds = time.monotonic() - t
+    data = json.loads((ag / "results" / "results.json").read_text())
+    checks = [x for x in data["tests"] if "score" not in x]
+    return {"seconds": seconds, "score": data["score"], "tests": len(data["tests"]), "checks": len(checks),
+            "failure": data["extra_data"].get("failure"), "timing": data["extra_data"].get("timing", {})}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--vcpu", type=float, default=0.5, help="share of one CPU to emulate (default 0.5)")
+    parser.add_argument("--keep", default=None, help="keep the work folder here")
+    args = parser.parse_args(argv)
+    work = Path(args.keep or tempfile.mkdtemp(prefix="hw4-bench-channels-"))
+    work.mkdir(parents=True, exist_ok=True)
+    for var in ("HW4_GRADER_CONFIG", "HW4_GRADER_SECRET", "HW4_COURSE_DATA"):
+        os.environ.pop(var, None)
+    t = time.monotonic()
+    bundle = gradescope.build_bundle(work / "autograder.zip", allow_dev_secret=True)
+    print(f"bundle: {bundle.stat().st_size / 2**20:.1f} MB in {time.monotonic() - t:.1f} s "
+          f"(hidden inputs precomputed; time factor {gradescope.DEFAULT_TIME_FACTOR})")
+    key = corpus.build("key_full_marks", work / "subs")
+    hang = build_all_hang(work / "subs")
+    rows = [("answer key", "full speed", run(bundle, key, work / "key-full", []))]
+    with half_cpu(args.vcpu) as (prefix, how):
+        print(f"emulation: {args.vcpu} vCPU by {how}")
+        rows.append(("answer key", f"{args.vcpu} vCPU", run(bundle, key, work / "key-half", prefix)))
+        rows.append(("every function hangs", f"{args.vcpu} vCPU", run(bundle, hang, work / "hang-half", prefix)))
+    print(f"{'submission':22s} {'CPU':>10s} {'seconds':>8s} {'score':>6s} {'tests':>6s} {'slowness':>9s} {'scale':>6s}  inputs")
+    for name, cpu, r in rows:
+        tm = r["timing"]
+        print(f"{name:22s} {cpu:>10s} {r['seconds']:8.1f} {r['score']:6g} {r['tests']:6d} "
+              f"{tm.get('slowness', float('nan')):9.2f} {tm.get('time_scale', float('nan')):6.3f}  {tm.get('hidden_inputs')}"
+              + (f"  FAILED: {r['failure']}" if r["failure"] else ""))
+    hang_seconds = rows[-1][2]["seconds"]
+    print(f"target: every function hangs under 120 s at {args.vcpu} vCPU: {'met' if hang_seconds < 120 else 'MISSED'} "
+          f"({hang_seconds:.1f} s)")
+    if not args.keep:
+        shutil.rmtree(work, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,103 @@
+"""Same verdicts everywhere: five corpus submissions graded by the CLI (``python -m autograder
+grade``), by Gradescope's ``run_autograder`` in a folder laid out like /autograder, and by the
+nbgrader course (``nbgrader autograde`` then ``python -m autograder nbgrader-grade``) get
+identical per-question scores.  Slow: about five minutes on two cores.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from autograder import gradescope
+from autograder import nbgrader_course as nc
+from autograder.config import quick_config
+from autograder.results import autograded_question_ids
+from tests import corpus
+from tests.test_gradescope import run_autograder, unpack
+
+KIT_ROOT = Path(__file__).resolve().parents[1]
+SECRET = "channels-test-secret-6071"
+FIVE = ("key_full_marks", "untouched_student_zero", "transposed_F_loses_Q2",
+        "x_and_y_swapped_matches_lose_Q4_1_and_Q4_2", "hartley_normalisation_full_marks")
+QIDS = autograded_question_ids()
+
+pytestmark = [pytest.mark.slow,
+              pytest.mark.skipif(not __import__("importlib").util.find_spec("nbgrader"), reason="nbgrader is not installed")]
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    root = tmp_path_factory.mktemp("channels")
+    quick = quick_config(time_scale=1.0)
+    settings = {"secret": SECRET, "temples": [dataclasses.asdict(t) for t in quick.temples],
+                "match_points": quick.match_points, "ba_points": quick.ba_points, "car_times": quick.car_times}
+    config = root / "grader.json"
+    config.write_text(json.dumps(settings))
+    subs = {name: corpus.build(name, root / "subs") for name in FIVE}
+    env = {**os.environ, "HW4_GRADER_CONFIG": str(config)}
+    env.pop("HW4_GRADER_SECRET", None)
+    return {"root": root, "config": config, "subs": subs, "env": env}
+
+
+def cli_scores(setup) -> dict:
+    out = setup["root"] / "cli"
+    proc = subprocess.run([sys.executable, "-m", "autograder", "grade", *map(str, setup["subs"].values()),
+                           "--out", str(out), "--quiet", "--config", str(setup["config"])],
+                          cwd=KIT_ROOT, env=setup["env"], capture_output=True, text=True, timeout=1800, check=False)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    with open(out / "grades.csv", newline="") as fh:
+        rows = {r["student_id"]: r for r in csv.DictReader(fh)}
+    return {name: {q: float(rows[name][q]) for q in QIDS} for name in FIVE}
+
+
+def gradescope_scores(setup, monkeypatch) -> dict:
+    monkeypatch.setenv("HW4_GRADER_CONFIG", str(setup["config"]))
+    monkeypatch.delenv("HW4_GRADER_SECRET", raising=False)
+    bundle = gradescope.build_bundle(setup["root"] / "autograder.zip", time_limit=600)
+    out = {}
+    for name, folder in setup["subs"].items():
+        ag = unpack(bundle, setup["root"] / "gradescope" / name)
+        for p in sorted(folder.glob("*.ipynb")):
+            shutil.copy2(p, ag / "submission" / p.name)
+        data = run_autograder(ag)
+        scored = {t["name"].split()[0]: float(t["score"]) for t in data["tests"] if "score" in t}
+        out[name] = {q: scored.get(q, 0.0) for q in QIDS}
+    return out
+
+
+def nbgrader_scores(setup, monkeypatch) -> dict:
+    from autograder.config import load_config
+
+    monkeypatch.setenv("HW4_GRADER_CONFIG", str(setup["config"]))
+    course = nc.build_course(setup["root"] / "course")
+    nc.run_nbgrader(course, "generate_assignment", "hw4", "--force")
+    for name, folder in setup["subs"].items():
+        target = nc.submit_release(course, name)  # the folder and its timestamp
+        for p in target.glob("*.ipynb"):
+            p.unlink()
+        for p in sorted(folder.glob("*.ipynb")):
+            shutil.copy2(p, target / p.name)
+    nc.run_nbgrader(course, "autograde", "hw4", "--force", timeout=3600)
+    nc.grade_course(course, config=load_config())
+    return {name: {q: nc.kit_scores(course, name).get(q, 0.0) for q in QIDS} for name in FIVE}
+
+
+def test_cli_gradescope_and_nbgrader_give_the_same_scores(setup, monkeypatch):
+    cli = cli_scores(setup)
+    gs = gradescope_scores(setup, monkeypatch)
+    nb = nbgrader_scores(setup, monkeypatch)
+    for name in FIVE:
+        assert cli[name] == gs[name] == nb[name], (name, cli[name], gs[name], nb[name])
+    assert sum(cli["key_full_marks"].values()) == sum(cli["hartley_normalisation_full_marks"].values()) > 0
+    assert sum(cli["untouched_student_zero"].values()) == 0
+    assert cli["transposed_F_loses_Q2"]["Q2"] < cli["key_full_marks"]["Q2"]
+    assert cli["x_and_y_swapped_matches_lose_Q4_1_and_Q4_2"]["Q4.1"] < cli["key_full_marks"]["Q4.1"]
