@@ -170,7 +170,12 @@ def test_zip_with_nested_folders_and_tolerant_names(tmp_path):
     assert sub.notebooks["q2_eightpoint"].filename == "andrew/hw4/Q2 Eightpoint (1).ipynb"
     assert "second" in sub.notebooks["q2_eightpoint"].units[-1].source
     assert "triangulate" in sub.notebooks["q3_metric_reconstruction"].definitions
-    assert any("q20_notes" in n.file and n.kind == "not_used" for n in sub.ignored)
+    # Every file is read: q20_notes.ipynb too, but Q2's own file is the one whose eightpoint is used.
+    assert "andrew/hw4/q20_notes.ipynb" in sub.files
+    dup = next(n for n in sub.notes() if n.kind == "duplicate")
+    assert dup.name == "eightpoint" and dup.file == "andrew/hw4/Q2 Eightpoint (1).ipynb"
+    assert "names Q2" in str(dup) and "q20_notes.ipynb" in str(dup)
+    assert not any(".ipynb_checkpoints" in f or "__MACOSX" in f for f in sub.files)
     assert set(sub.missing_notebooks) == set(NOTEBOOKS) - {"q2_eightpoint", "q3_metric_reconstruction"}
 
 
@@ -181,7 +186,11 @@ def test_exact_name_is_preferred_over_a_copy(tmp_path):
     })
     sub = load_submission(root)
     assert sub.notebooks["q2_eightpoint"].filename == "q2_eightpoint.ipynb"
-    assert any("Copy of q2_eightpoint.ipynb" in str(n) for n in sub.ignored)
+    assert sub.functions["eightpoint"].filename == "q2_eightpoint.ipynb"
+    dup = next(n for n in sub.notes() if n.kind == "duplicate")
+    assert "old/Copy of q2_eightpoint.ipynb" in str(dup) and "closest to the kit's" in str(dup)
+    last = [u for u in sub.units() if "eightpoint" in u.defines][-1]
+    assert last.origin.startswith("q2_eightpoint.ipynb") and "second" in last.source
 
 
 @pytest.mark.parametrize("evil", ["../evil.py", "/etc/q2_evil.py", "ok/../../q2_evil.py", "C:/q2_evil.py"])
@@ -258,3 +267,94 @@ def test_a_renamed_notebook_is_recognised_by_its_metadata(tmp_path):
     root = write_folder(tmp_path / "sub", {"Untitled (1).ipynb": nbformat.writes(nb).encode()})
     sub = load_submission(root)
     assert sub.notebooks["q2_eightpoint"].filename == "Untitled (1).ipynb"
+
+
+# ---------------------------------------------------------------------------------------------
+# any hand-in layout: modules, duplicates, helper, signatures
+
+
+def test_py_files_become_modules_named_as_on_the_students_machine(tmp_path):
+    root = write_folder(tmp_path / "sub", {
+        "andrew_hw4/code/q3_1_essential_matrix.py": b"def essentialMatrix(F, K1, K2):\n    return F\n",
+        "andrew_hw4/code/q3_2_triangulate.py": (b"from q3_1_essential_matrix import essentialMatrix\n"
+                                                b"from helper import camera2\n"
+                                                b"def triangulate(C1, pts1, C2, pts2):\n    return 1\n"
+                                                b"if __name__ == '__main__':\n    triangulate(1, 2, 3, 4)\n"),
+        "andrew_hw4/code/HW4 scratch.py": b"def findM2(F, pts1, pts2, intrinsics, filename='q3_3.npz'):\n    pass\n",
+    })
+    sub = load_submission(root)
+    code = "andrew_hw4/code/"
+    assert sub.modules["q3_1_essential_matrix"] == code + "q3_1_essential_matrix.py"
+    assert sub.modules["andrew_hw4.code.q3_2_triangulate"] == code + "q3_2_triangulate.py"
+    assert "code.q3_2_triangulate" not in sub.modules  # 'code' is the standard library's
+    private = [m for m, f in sub.modules.items() if f == code + "HW4 scratch.py"]
+    assert private and private[0].startswith("_hw4_file_")
+    # helper is the kit's given helpers, and the note says who imported it.
+    assert sub.modules["helper"] == "the kit's given helpers (starter)"
+    given = [n for n in sub.notes() if n.kind == "given_helper"]
+    assert given and given[0].file == code + "q3_2_triangulate.py"
+    units = sub.units()
+    bodies = {u.module for u in units if u.module}
+    assert {"q3_1_essential_matrix", "helper", "andrew_hw4", "andrew_hw4.code"} <= bodies
+    assert all("__name__" not in u.source for u in units)
+    # The grader's namespace gets each homework function from its module.
+    assert any(u.source == "from q3_2_triangulate import triangulate" and u.module is None for u in units)
+    assert [u.to_job().get("module") for u in units if u.module == "helper"] == ["helper"]
+    # The parameters as written: another year's findM2 is recognisable.
+    sig = sub.signature("findM2")
+    assert sig.positional == ("F", "pts1", "pts2", "intrinsics", "filename") and sig.required[-1] == "intrinsics"
+    assert sub.functions["findM2"].params == ("F", "pts1", "pts2", "intrinsics", "filename")
+    assert str(sig) == "(F, pts1, pts2, intrinsics, filename=...)"
+
+
+def test_a_shipped_helper_is_the_students_own(tmp_path):
+    root = write_folder(tmp_path / "sub", {
+        "submission.py": b"import helper\ndef eightpoint(pts1, pts2, M):\n    return helper.refineF(0, 1, 2)\n",
+        "helper.py": b"def refineF(F, pts1, pts2):\n    return 'mine'\n",
+    })
+    sub = load_submission(root)
+    assert sub.modules["helper"] == "helper.py"
+    assert not any(n.kind == "given_helper" for n in sub.notes())
+    assert not any(u.module == "helpers" for u in sub.units())  # nobody imports 'helpers'
+
+
+def test_duplicates_prefer_the_file_of_the_question_else_the_last(tmp_path):
+    root = write_folder(tmp_path / "sub", {
+        "a_scratch.py": b"def triangulate(C1, pts1, C2, pts2):\n    return 'scratch'\n"
+                        b"def essentialMatrix(F, K1, K2):\n    return 'a'\n",
+        "q3_2_triangulate.py": b"def triangulate(C1, pts1, C2, pts2):\n    return 'q3.2'\n",
+        "z_more.py": b"def essentialMatrix(F, K1, K2):\n    return 'z'\n",
+    })
+    sub = load_submission(root)
+    assert sub.functions["triangulate"].filename == "q3_2_triangulate.py"
+    assert "names Q3.2" in sub.functions["triangulate"].reason
+    # No file's name matches Q3.1: the last one in reading (path) order.
+    assert sub.functions["essentialMatrix"].filename == "z_more.py"
+    assert "last one defined" in sub.functions["essentialMatrix"].reason
+    notes = {n.name: str(n) for n in sub.notes() if n.kind == "duplicate"}
+    assert "a_scratch.py, line 1" in notes["triangulate"] and "z_more.py is used" in notes["essentialMatrix"]
+    last = [u for u in sub.units() if "essentialMatrix" in u.defines and u.module is None][-1]
+    assert last.source == "from z_more import essentialMatrix"
+
+
+def test_a_module_relying_on_the_shared_namespace_is_linked(tmp_path):
+    root = write_folder(tmp_path / "sub", {
+        "q3_metric_reconstruction.py": b"def triangulate(C1, pts1, C2, pts2):\n    return 1\n",
+        "q4_temple_3d.py": b"def compute3D_pts(im1, im2, F, x1, y1, C1, C2):\n    return triangulate(C1, 0, C2, 0)\n",
+    })
+    sub = load_submission(root)
+    link = sub.units()[-1]
+    assert "q4_temple_3d" in link.source and "triangulate" in link.source and link.module is None
+    ast.parse(link.source)
+
+
+def test_one_notebook_with_everything_answers_every_notebook(tmp_path):
+    root = write_folder(tmp_path / "sub", {"my hw4.ipynb": notebook_bytes(
+        EIGHTPOINT_V1, "def findM2(F, pts1, pts2, K1, K2):\n    return 0\n", "F = eightpoint(1, 2, 3)\n")})
+    sub = load_submission(root)
+    assert sub.notebooks["q2_eightpoint"].filename == "my hw4.ipynb"
+    assert sub.notebooks["q3_metric_reconstruction"].filename == "my hw4.ipynb"
+    assert "q2_eightpoint" not in sub.missing_notebooks and "q4_temple_3d" in sub.missing_notebooks
+    kinds = {(n.kind, n.name) for n in sub.notes()}
+    assert ("missing", "triangulate") in kinds and not any(k == "borrowed" for k, _ in kinds)
+    assert not any("eightpoint(1, 2, 3)" in u.source for u in sub.units())
