@@ -24,6 +24,7 @@ The commands are listed in ``COMMANDS``; ``gradescope`` and ``nbgrader`` add the
 
 from __future__ import annotations
 
+import atexit
 import os
 import signal
 import sys
@@ -63,7 +64,11 @@ def _batch_errors(run):
         print(f"\ninterrupted: {len(exc.records)} submissions recorded, {len(exc.cancelled)} cancelled and not "
               f"recorded ({', '.join(exc.cancelled) or 'none'}); run the same command again to resume",
               file=sys.stderr)
-        return 130
+        # Exit now (clean-ups registered with atexit run; no interpreter shutdown a Ctrl-C could cut).
+        sys.stdout.flush()
+        sys.stderr.flush()
+        atexit._run_exitfuncs()
+        os._exit(130)
     except KeyboardInterrupt:
         print("\ninterrupted before any submission was graded", file=sys.stderr)
         return 130

@@ -432,7 +432,8 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         folder = out / name
         with write_lock:
             if cancel.is_set():
-                return None  # graded (or broken) while being cancelled: nothing recorded
+                journal.clear(name)
+                return None  # graded (or broken) while being cancelled: nothing recorded, no strike
             _write_outputs(folder, result, _state(result, path, digest, staff, poison=poison))
             journal.clear(name)
         return BatchRecord(name, path, folder, result.score, {q.id: q.score for q in result.questions},
@@ -451,6 +452,7 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
                                             staff=staff, extra_tests=extra_tests)
         except Exception as exc:  # noqa: BLE001 - the catastrophic path: a failed result, never a stop
             if cancel.is_set():
+                journal.clear(name)
                 return None
             staff["log"].append(traceback.format_exc())
             staff["internal_error"] = True
