@@ -427,6 +427,47 @@ def test_session_budget_stops_calls_that_come_too_late(box):
     assert "budget" in later.message
 
 
+def test_cpu_clock_stops_a_spinning_call_at_its_cpu_budget_and_lets_a_waiting_one_finish(box):
+    src = ("import time\n"
+           "def spin():\n    while True: pass\n"
+           "def nap_then_answer():\n    time.sleep(1.2)\n    return 7\n")
+    with box.session(src, budget=60) as session:
+        spun = session.call("spin", seconds=0.6, clock="cpu")
+        # 1.2 s of sleep is almost no CPU time: within a 0.5 s CPU budget (wall clock: a timeout).
+        napped = session.call("nap_then_answer", seconds=0.5, clock="cpu")
+    assert spun.status == "timeout" and spun.stopped_by == "cpu" and "CPU time" in spun.message
+    assert 0.5 <= spun.seconds < 0.6 + 1.0  # stopped by the child itself, about when its CPU ran out
+    assert napped.status == "ok" and napped.value == 7
+    assert session.info.spawns == 1  # the child stopped the spinning call itself: no restart
+
+
+def test_cpu_clock_kills_a_sleeping_call_at_the_wall_backstop(box):
+    src = "import time\ndef sleep_forever():\n    time.sleep(3600)\ndef fine(): return 1\n"
+    with box.session(src, budget=60) as session:
+        slept = session.call("sleep_forever", seconds=0.4, clock="cpu")
+        again = session.call("sleep_forever", seconds=0.4, clock="cpu")
+        fine = session.call("fine", seconds=5, clock="cpu")
+    backstop = 0.4 * LIMITS.wall_factor + LIMITS.grace
+    assert slept.status == "timeout" and slept.stopped_by == "backstop" and "waiting" in slept.message
+    assert backstop - 0.1 <= slept.seconds < backstop + 1.5
+    assert again.stopped_by == "backstop" and "not run" in again.message  # not waited for twice
+    assert fine.value == 1 and session.info.spawns == 2  # the killed child was replaced
+
+
+def test_wall_clock_is_the_default_and_says_so(box):
+    r = run(box, "def spin():\n    while True: pass\n", Call("s", "spin", timeout=0.5))
+    assert r["s"].status == "timeout" and r["s"].stopped_by == "wall" and "CPU" not in r["s"].message
+
+
+def test_clock_settings_are_checked_and_travel_with_the_limits():
+    limits = ResourceLimits(clock="cpu", wall_factor=2.5)
+    assert ResourceLimits(**vars(limits)) == limits  # what Sandbox.describe/attach hand over
+    with pytest.raises(ValueError, match="clock"):
+        ResourceLimits(clock="gpu")
+    with pytest.raises(ValueError, match="wall_factor"):
+        ResourceLimits(clock="cpu", wall_factor=0.5)
+
+
 def test_chained_calls_feed_one_functions_results_to_another(box):
     src = "import numpy as np\ndef match(im, x):\n    return np.array([x + im.sum(), 0.0])\n" \
           "def total(pts):\n    return float(np.sum(pts))\n"
@@ -512,3 +553,45 @@ def test_two_grader_processes_never_share_a_uid():
     # Released with its process: the uid is free again.
     again = subprocess.run([sys.executable, "-c", code], input="", capture_output=True, text=True, env=env)
     assert again.returncode == 0 and int(again.stdout) == 61234
+
+
+# ---------------------------------------------------------------------------------------------
+# results written by student code (issue 9)
+
+_SAVES_RESULTS = """
+import os
+import numpy as np
+import matplotlib.pyplot as plt
+
+def eightpoint(pts1, pts2, M):
+    F = np.eye(3)
+    np.savez('results/q2_1.npz', F=F, M=M)
+    with open('../results/q2_1.txt', 'w') as f:
+        f.write(str(M))
+    plt.figure()
+    plt.plot([0, 1], [0, 1])
+    plt.savefig('results/f.png')
+    plt.close('all')
+    np.save(os.path.join('..', 'results', 'q2_1_again.npy'), F)
+    return F, sorted(os.listdir('results')), sorted(os.listdir('../results')), os.getcwd()
+"""
+
+
+@pytest.mark.parametrize("private_tmp", [True, False])
+def test_function_that_saves_into_results_and_parent_results_gets_its_result(box, private_tmp):
+    def check(sandbox):
+        r = run(sandbox, _SAVES_RESULTS, Call("e", "eightpoint", (np.zeros((8, 2)), np.zeros((8, 2)), 640)))
+        assert r["e"].status == "ok", r["e"].message
+        F, here, parent, cwd = r["e"].value
+        assert np.array_equal(F, np.eye(3))
+        assert here == ["f.png", "q2_1.npz"] and parent == ["q2_1.txt", "q2_1_again.npy"]
+        # ../results lies inside the child's own scratch folder, never in the grader's or the kit's.
+        scratch = Path(cwd).parent
+        assert not str(scratch).startswith(str(KIT_ROOT)) and scratch != Path("/tmp")
+        assert not (KIT_ROOT / "results" / "q2_1.txt").exists()
+
+    if private_tmp:
+        check(box)
+    else:
+        with Sandbox(KIT_ROOT, private_tmp=False, limits=LIMITS) as sandbox:
+            check(sandbox)

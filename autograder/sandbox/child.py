@@ -10,10 +10,12 @@ The protocol is a session (the grader's side is ``autograder/sandbox/session.py`
   ``{"units": [{origin, line, source, future}], "load_timeout", "sys_path", "max_result_bytes",
   "max_message"}``: top-level code of the student's notebooks, executed in order in one fresh
   module namespace named ``__main__``.  Every later line is a call:
-  ``{"id", "function", "args", "inputs", "seconds", "budget", "figure"}``: call ``function`` once
+  ``{"id", "function", "args", "inputs", "seconds", "budget", "figure", "clock"}``: call ``function`` once
   per entry of ``inputs`` (``{"args", "kwargs"}``), each time on fresh copies of ``args`` followed
   by the entry's own arguments (all in the wire format of ``core/wire.py``); stop starting new
-  inputs after ``budget`` seconds and stop the call itself after ``seconds``.  With ``figure``,
+  inputs after ``budget`` seconds and stop the call itself after ``seconds`` (wall-clock seconds,
+  or with ``clock`` "cpu" CPU seconds of this process: ITIMER_PROF and ``time.process_time``; the
+  grader kills a call that waits instead of computing).  With ``figure``,
   what is reported for an input is the (K, 3) points its 3D figures show, not the returned value.
 - the result pipe (file descriptor N) receives one JSON record per line:
   ``{"event": "loaded", "errors": [{origin, message}], "defined": [names]}``; then per call
@@ -46,17 +48,24 @@ def _on_alarm(signum, frame):
         raise _Timeout()
 
 
-def _arm(seconds):
+def _arm(seconds, clock="wall"):
+    """Stop what runs after ``seconds``: wall-clock seconds (ITIMER_REAL, SIGALRM) or, with
+    clock "cpu", CPU seconds of this process (ITIMER_PROF, SIGPROF: user and system time)."""
     global _armed
     _armed = True
-    signal.signal(signal.SIGALRM, _on_alarm)
-    signal.setitimer(signal.ITIMER_REAL, max(float(seconds), 0.001))
+    if clock == "cpu":
+        signal.signal(signal.SIGPROF, _on_alarm)
+        signal.setitimer(signal.ITIMER_PROF, max(float(seconds), 0.001))
+    else:
+        signal.signal(signal.SIGALRM, _on_alarm)
+        signal.setitimer(signal.ITIMER_REAL, max(float(seconds), 0.001))
 
 
 def _disarm():
     global _armed
     _armed = False
     signal.setitimer(signal.ITIMER_REAL, 0)
+    signal.setitimer(signal.ITIMER_PROF, 0)
 
 
 class _Channel:
@@ -248,14 +257,17 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     figure = bool(request.get("figure"))
     shared = wire.decode(request.get("args", {"__tuple__": []}), wire.Limits(max_array_bytes=2**31,
                                                                             max_total_bytes=2**32))
-    start = time.monotonic()
+    clock = "cpu" if request.get("clock") == "cpu" else "wall"
+    now = time.process_time if clock == "cpu" else time.monotonic
+    over = f"used more than {seconds:g} s of CPU time" if clock == "cpu" else f"took more than {seconds:g} s"
+    start = now()
     timed_out = False
-    _arm(seconds)
+    _arm(seconds, clock)
     try:
         for index, item in enumerate(inputs):
             record = {"event": "item", "id": rid, "index": index}
             t0 = time.perf_counter()
-            if timed_out or time.monotonic() - start > budget:
+            if timed_out or now() - start > budget:
                 record.update(status="skipped", message=f"not run: {request['function']} used up its time "
                               "on the earlier inputs")
                 channel.send(record)
@@ -271,14 +283,14 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
                     record.update(status="ok", value=wire.encode_returned(value))
                 except _Timeout:
                     timed_out = True
-                    record.update(status="timeout", message=f"took more than {seconds:g} s")
+                    record.update(status="timeout", message=over)
                 except wire.Unsupported as exc:
                     record.update(status="malformed", message=str(exc))
                 except BaseException as exc:  # noqa: BLE001 - SystemExit and friends included
                     record.update(status="exception", message=_describe(exc, origins, limit))
             except _Timeout:
                 timed_out = True
-                record.update(status="timeout", message=f"took more than {seconds:g} s")
+                record.update(status="timeout", message=over)
             except BaseException:  # noqa: BLE001 - e.g. a message whose __str__ itself failed
                 record.update(status="exception", message="the code raised an exception that could not be described")
             if os.getpid() != _MAIN_PID:

@@ -5,10 +5,15 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-__all__ = ["LEVELS", "STATUSES", "WEAK_LEVELS", "CallOutcome", "Isolation", "IsolationRefused", "ResourceLimits",
+__all__ = ["CLOCKS", "LEVELS", "STATUSES", "STOPPED_BY", "WEAK_LEVELS", "CallOutcome", "Isolation", "IsolationRefused", "ResourceLimits",
            "SessionInfo"]
 
 STATUSES = ("ok", "exception", "timeout", "crashed", "missing", "malformed", "skipped")
+# How a call's time limit is counted: wall-clock seconds, or CPU seconds of the child.
+CLOCKS = ("wall", "cpu")
+# What stopped a call that timed out: the child's own CPU timer, its own wall-clock timer, the
+# grader killing the child (the call's wall-clock backstop), or the session's budget running out.
+STOPPED_BY = ("cpu", "wall", "backstop", "budget")
 LEVELS = ("namespaces", "user-namespaces", "uid", "basic")
 # Levels where the code keeps the grader's uid or can read the grader's files: only on request.
 WEAK_LEVELS = ("user-namespaces", "basic")
@@ -28,6 +33,14 @@ class ResourceLimits:
     of the private /tmp (namespace levels); output_bytes: how much of stdout and of stderr is
     kept; result_bytes: largest encoded result; grace: seconds the grader waits beyond a call's
     own limit before killing the child (the child stops a call itself first).
+
+    clock: how each call's ``seconds`` are counted by default (a request may say otherwise):
+    "wall", wall-clock seconds (the child arms ITIMER_REAL); "cpu", CPU seconds of the child
+    (ITIMER_PROF, user and system time of all its threads), so that a slow or shared machine
+    does not stop a call that is computing, while a call that waits (sleep, a blocked read) is
+    still killed by the grader at ``seconds * wall_factor + grace`` wall-clock seconds after it
+    started.  wall_factor: that backstop's multiple (cpu clock only; at least 1; a machine that
+    gives the code half a CPU needs more than 2).
     """
 
     memory_bytes: int = 3 * 2**30
@@ -38,6 +51,15 @@ class ResourceLimits:
     output_bytes: int = 64 * 1024
     result_bytes: int = 64 * 2**20
     grace: float = 2.0
+    clock: str = "wall"
+    wall_factor: float = 3.0
+
+    def __post_init__(self):
+        if self.clock not in CLOCKS:
+            raise ValueError(f"clock: expected one of {CLOCKS}, got {self.clock!r}")
+        wf = self.wall_factor
+        if isinstance(wf, bool) or not isinstance(wf, (int, float)) or not 1 <= wf <= 1000:
+            raise ValueError(f"wall_factor: expected a number of at least 1 (and at most 1000), got {wf!r}")
 
 
 @dataclass(frozen=True)
@@ -48,13 +70,15 @@ class CallOutcome:
     function had been stopped before); value: the decoded return value when status is "ok";
     message: for the other statuses, a short text for the student (the student's exception
     type and message with the line of their code, never a grader traceback); seconds: run time
-    (as the child measured it for calls that returned, so informative only).
+    (as the child measured it for calls that returned, so informative only); stopped_by: for a
+    "timeout", what stopped it (one of ``STOPPED_BY``), else None.
     """
 
     status: str
     value: Any = None
     message: str = ""
     seconds: float | None = None
+    stopped_by: str | None = None
 
     @property
     def ok(self) -> bool:

@@ -2,7 +2,11 @@
 
 A ``Session`` holds one submission's code loaded in a sandboxed child and answers calls one at a
 time: ``call(function, *args, seconds=...)`` for one input, ``map(function, inputs, ...)`` for
-several inputs within one budget.  The child is started on the first call and restarted, lazily,
+several inputs within one budget.  A call's ``seconds`` are wall-clock seconds or CPU seconds
+of the child (``clock``, by default ``limits.clock``): under the CPU clock the child stops a call
+that computes too long itself, and the grader kills one that waits instead (sleep, a blocked
+read) at ``seconds * limits.wall_factor + limits.grace`` wall-clock seconds; ``CallOutcome.stopped_by``
+says which happened.  The child is started on the first call and restarted, lazily,
 after a call that crashed it, was killed for overrunning its time or broke the protocol.  A
 function that ran out of time is not called again in the session (it would most likely hang
 again), and the session as a whole has a time budget.  Loading that crashes or hangs fails every
@@ -30,7 +34,7 @@ from pathlib import Path
 from core import wire
 
 from . import script
-from .model import CallOutcome, Isolation, SessionInfo
+from .model import CLOCKS, CallOutcome, Isolation, SessionInfo
 from .script import Runtime
 from .uids import sweep_uid
 
@@ -115,7 +119,7 @@ class Session:
         self.defined: tuple = ()
         self.loaded_once = False
         self.load_failure: CallOutcome | None = None
-        self.stopped: set[str] = set()
+        self.stopped: dict[str, str | None] = {}  # function -> what stopped it
         self.spawns = 0
         self.swept = 0
         self.calls = 0
@@ -123,17 +127,19 @@ class Session:
 
     # -- public --------------------------------------------------------------------------------
 
-    def call(self, function: str, *args, seconds: float, **kwargs) -> CallOutcome:
-        """``function(*args, **kwargs)`` in the sandbox, stopped after ``seconds``."""
-        return self.map(function, [(args, kwargs)], seconds=seconds)[0]
+    def call(self, function: str, *args, seconds: float, clock: str | None = None, **kwargs) -> CallOutcome:
+        """``function(*args, **kwargs)`` in the sandbox, stopped after ``seconds`` (of ``clock``)."""
+        return self.map(function, [(args, kwargs)], seconds=seconds, clock=clock)[0]
 
     def map(self, function: str, inputs: Sequence, *, args: Sequence = (), seconds: float,
-            budget: float | None = None, figure: bool = False) -> list[CallOutcome]:
+            budget: float | None = None, figure: bool = False, clock: str | None = None) -> list[CallOutcome]:
         """``function(*args, *a, **k)`` for each ``(a, k)`` of ``inputs``, one outcome per input.
 
-        seconds: hard limit of the whole request (the child stops it, the grader kills the child
-        ``limits.grace`` later); budget: no new input is started after it (default: seconds);
-        figure: report the (K, 3) points the function's 3D figures show instead of its value.
+        seconds: hard limit of the whole request (the child stops it; the grader kills the child
+        ``limits.grace`` later, or under the CPU clock ``seconds * limits.wall_factor + grace``
+        wall-clock seconds after the request started); budget: no new input is started after it
+        (default: seconds; same clock); figure: report the (K, 3) points the function's 3D
+        figures show instead of its value; clock: "wall" or "cpu" (default ``limits.clock``).
         Arguments are plain data (``core.wire``); anything else is a grader bug (ValueError).
         """
         if self.closed:
@@ -141,20 +147,25 @@ class Session:
         seconds = float(seconds)
         if not (math.isfinite(seconds) and seconds > 0):
             raise ValueError(f"seconds: expected a positive number, got {seconds}")
+        clock = self.rt.limits.clock if clock is None else clock
+        if clock not in CLOCKS:
+            raise ValueError(f"clock: expected one of {CLOCKS}, got {clock!r}")
         try:
             request = {"function": str(function), "args": wire.encode(tuple(args)),
                        "inputs": [{"args": wire.encode(tuple(a)), "kwargs": wire.encode(dict(k))} for a, k in inputs],
                        "seconds": seconds, "budget": float(budget if budget is not None else seconds),
-                       "figure": bool(figure)}
+                       "figure": bool(figure), "clock": clock}
         except (wire.WireError, TypeError, ValueError) as exc:
             raise ValueError(f"{function}: arguments must be plain data ({exc})") from None
         n = len(request["inputs"])
         if n == 0:
             return []
-        if function in self.stopped:
-            return [CallOutcome("timeout", message=f"not run: {function} was stopped earlier for taking too long")] * n
         if time.monotonic() >= self.deadline:
-            return [CallOutcome("timeout", message="the submission's time budget ran out before this call ran")] * n
+            return [CallOutcome("timeout", message="the submission's time budget ran out before this call ran",
+                                stopped_by="budget")] * n
+        if function in self.stopped:
+            return [CallOutcome("timeout", message=f"not run: {function} was stopped earlier for taking too long",
+                                stopped_by=self.stopped[function])] * n
         if self.load_failure is None and self.child is None:
             self._spawn()
         if self.load_failure is not None:
@@ -162,8 +173,9 @@ class Session:
         self.calls += 1
         request["id"] = f"r{self.calls}"
         results = self._exchange(request, n)
-        if any(o.status == "timeout" for o in results):
-            self.stopped.add(function)
+        for o in results:
+            if o.status == "timeout":
+                self.stopped.setdefault(function, o.stopped_by)
         return results
 
     def start(self) -> None:
@@ -255,12 +267,15 @@ class Session:
         child.pending = (json.dumps(request, allow_nan=False, separators=(",", ":")) + "\n").encode()
         sent = time.monotonic()
         grace = self.rt.limits.grace
+        cpu = request["clock"] == "cpu"
+        # Under the CPU clock the child's timer never fires while the call waits: this is the backstop.
+        allowed = request["seconds"] * (self.rt.limits.wall_factor if cpu else 1.0)
 
         def until() -> float:
             if state["started"] is None:
                 limit = sent + _START_SLACK + grace
             else:
-                limit = state["started"] + request["seconds"] + grace
+                limit = state["started"] + allowed + grace
             return min(limit, self.deadline)
 
         def on_record(rec: dict) -> None:
@@ -276,7 +291,7 @@ class Session:
                 if type(index) is not int or not 0 <= index < n or status not in _ITEM_STATUSES:
                     raise _ProtocolError("a result names an unknown input or status")
                 if index not in found:  # the first word on an input is final
-                    found[index] = self._outcome(rec)
+                    found[index] = self._outcome(rec, request["clock"])
                 state["current"] = max(state["current"], index + 1)
             elif event == "end":
                 state["ended"] = True
@@ -297,12 +312,18 @@ class Session:
         seconds = round(time.monotonic() - started, 3) if started else None
         if ended == "deadline":
             if time.monotonic() >= self.deadline:
-                first = CallOutcome("timeout", message="the submission's time budget ran out", seconds=seconds)
+                first = CallOutcome("timeout", message="the submission's time budget ran out", seconds=seconds,
+                                    stopped_by="budget")
             elif started is None:
-                first = CallOutcome("timeout", message="the code did not start the next call in time")
+                first = CallOutcome("timeout", message="the code did not start the next call in time",
+                                    stopped_by="backstop")
+            elif cpu:
+                first = CallOutcome("timeout", message=f"took more than {allowed:g} s of wall-clock time without "
+                                    f"using its {request['seconds']:g} s of CPU time (waiting, not computing) "
+                                    "and was stopped", seconds=seconds, stopped_by="backstop")
             else:
                 first = CallOutcome("timeout", message=f"took more than {request['seconds']:g} s and was stopped",
-                                    seconds=seconds)
+                                    seconds=seconds, stopped_by="backstop")
         elif ended == "exited":
             first = CallOutcome("crashed", message="the process running the code ended without a result "
                                 + _describe_exit(child.proc.returncode), seconds=seconds)
@@ -315,11 +336,12 @@ class Session:
         rest = CallOutcome("skipped", message=f"not run: {request['function']} stopped on an earlier input")
         return [found.get(k, rest) for k in range(n)]
 
-    def _outcome(self, rec: dict) -> CallOutcome:
+    def _outcome(self, rec: dict, clock: str) -> CallOutcome:
         seconds = rec.get("seconds")
         seconds = float(seconds) if type(seconds) in (int, float) and math.isfinite(seconds) else None
         if rec["status"] != "ok":
-            return CallOutcome(rec["status"], message=_short(rec.get("message")), seconds=seconds)
+            return CallOutcome(rec["status"], message=_short(rec.get("message")), seconds=seconds,
+                               stopped_by=clock if rec["status"] == "timeout" else None)
         try:
             value = wire.decode(rec.get("value"), self.wire_limits)
         except wire.WireError as exc:
