@@ -19,7 +19,7 @@ from pathlib import Path
 from .model import ResourceLimits
 from .uids import count_processes
 
-__all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "Runtime", "command", "env", "make_workdir", "popen_options",
+__all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "RESULT_DIRS", "Runtime", "command", "env", "make_workdir", "popen_options",
            "python_dirs_in_private_tmp", "unreachable_python_dirs"]
 
 MPL_CACHE = "mplconfig"
@@ -108,16 +108,31 @@ def unreachable_python_dirs() -> dict[Path, list[Path]]:
 # the process
 
 
+# Folders student code may write its results into, relative to its working folder (the
+# handouts of several years said `results/` or `../results/`).  Both lie inside the child's own
+# scratch area: the working folder is <scratch>/run, so `..` is the scratch folder itself.
+RESULT_DIRS = ("results", "../results")
+
+
 def make_workdir(rt: Runtime, jobdir: Path) -> Path:
-    """A fresh working folder (HOME) for one child, owned by the sandbox's uid."""
+    """A fresh working folder (HOME and cwd) for one child, owned by the sandbox's uid.
+
+    The folder is ``<scratch>/run`` with ``<scratch>`` private to the child (``jobdir/work``, or
+    ``/tmp/work`` on the namespace's private /tmp); ``run/results`` and ``<scratch>/results``
+    exist and are writable (RESULT_DIRS), so code that saves its results before returning works.
+    """
     if rt.namespaced and rt.private_tmp:
-        return Path("/tmp/work")  # made by the namespace's shell on the private /tmp
-    work = jobdir / "work"
+        return Path("/tmp/work/run")  # made by the namespace's shell on the private /tmp
+    scratch = jobdir / "work"
+    scratch.mkdir(mode=0o700)
+    work = scratch / "run"
     work.mkdir(mode=0o700)
+    for rel in RESULT_DIRS:
+        (work / rel).mkdir(mode=0o700, exist_ok=True)
     if (rt.lib / MPL_CACHE).is_dir():
         shutil.copytree(rt.lib / MPL_CACHE, work / ".matplotlib")
     if rt.uid is not None:
-        for p in [work, *work.rglob("*")]:
+        for p in [scratch, *scratch.rglob("*")]:
             os.chown(p, rt.uid, rt.uid, follow_symlinks=False)
     return work
 
@@ -239,12 +254,14 @@ def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
         lines.append(f"mkdir -p {q(str(lib))}")
         lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{lib_fd} {q(str(lib))}")
         lines.append(f"mount -o remount,bind,ro {q(str(lib))}")
+        scratch = workdir.parent
         lines.append(f"mkdir -p {q(str(workdir))}")
+        lines.append("mkdir -p " + " ".join(q(os.path.normpath(workdir / rel)) for rel in RESULT_DIRS))
         if (rt.lib / MPL_CACHE).is_dir():
             lines.append(f"cp -R {q(str(lib / MPL_CACHE))} {q(str(workdir / '.matplotlib'))}")
         if rt.uid is not None:
-            lines.append(f"chown -R {rt.uid}:{rt.uid} {q(str(workdir))}")
-        lines.append(f"chmod 700 {q(str(workdir))}")
+            lines.append(f"chown -R {rt.uid}:{rt.uid} {q(str(scratch))}")
+        lines.append(f"chmod 700 {q(str(scratch))} {q(str(workdir))}")
     for kfd, _ in binds:
         lines.append(f"exec {kfd}<&-")
     lines.append(f"cd {q(str(workdir))}")
