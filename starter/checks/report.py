@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from judging.hints import numpy2_hint
 from judging.mistakes import Mistake
 from judging.verdict import Verdict
 
@@ -202,12 +203,14 @@ def call(fn: Callable, *args, **kwargs) -> Outcome:
     except NotImplementedError:
         return Outcome("not implemented")
     except Exception as exc:  # noqa: BLE001 - any failure of student code is reported as one line
-        text = " ".join(str(exc).split())
+        hint = numpy2_hint(str(exc))  # a name NumPy removed: say which and what replaces it
+        text = " ".join((str(exc).splitlines() or [""])[0].split() if hint else str(exc).split())
         if len(text) > 200:
             text = text[:197] + "..."
         line = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
         where = student_frame(exc.__traceback__)
-        return Outcome("error", message=f"{line} (in {where})" if where else line)
+        message = f"{line} (in {where})" if where else line
+        return Outcome("error", message=f"{message.rstrip('.')}. {hint}" if hint else message)
     if _is_empty(value):
         return Outcome("not implemented")
     return Outcome("ok", value)
