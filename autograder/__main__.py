@@ -9,6 +9,13 @@
   regrade OLD_DIR --into NEW_DIR [SUB...]     the same: grade OLD_DIR's class again, with the diff
   accept NEW_DIR --into OLD_DIR               publish a regrade (OLD_DIR's results kept in .history/)
   key --out DIR                               write the answer-key submission (scores full marks)
+  similar SUBMISSION... --out DIR             look-alike code: pairs of submissions to look at, per function
+  report GRADED_DIR --out DIR                 the class report: pass shares, mistakes, histograms, Canvas CSV
+  nbgrader-grade COURSE [--assignment hw4]    write the kit's scores into an nbgrader gradebook (after autograde)
+
+Before grading anything, a batch grades the answer key in its own sandbox and configuration (the
+canary): unless the key gets full marks, nothing is graded and the command says why.  Student code
+never runs as root or as the grader's own user unless --allow-weak-isolation is given.
 
 A batch resumes: results of the same content and configuration are kept; failures, internal
 errors and submissions that were in flight when a grader died are graded again.  Ctrl-C stops it
@@ -75,6 +82,7 @@ def _batch_errors(run):
 
 
 def _grade(args) -> int:
+    os.umask(0o077)  # results, logs and the key copy are the grader's alone
     if args.regrade_into:
         return _regrade_run(args, args.out, args.regrade_into, args.submissions)
     return _batch_errors(lambda: _grade_run(args))
@@ -82,7 +90,7 @@ def _grade(args) -> int:
 
 def _grade_options(args, config) -> dict:
     return {"jobs": args.jobs, "config": config, "progress": not args.quiet, "isolation": args.isolation,
-            "extra_tests": args.hidden_dir}
+            "extra_tests": args.hidden_dir, "allow_weak": args.allow_weak_isolation}
 
 
 def _grade_run(args) -> int:
@@ -138,6 +146,8 @@ def _accept(args) -> int:
 def _key(args) -> int:
     from .key import write_key_submission
 
+    os.umask(0o077)
+
     path = write_key_submission(args.out, zip_it=not args.no_zip)
     print(f"answer-key submission: {path}")
     if args.grade:
@@ -157,6 +167,8 @@ def _common_arguments(p) -> None:
                    help="also grade on the official course data in DIR (default: only if $HW4_COURSE_DATA is set)")
     p.add_argument("--isolation", default="auto", choices=["auto", *LEVELS],
                    help="sandbox level (default: the strongest that works here)")
+    p.add_argument("--allow-weak-isolation", action="store_true",
+                   help="accept a sandbox that runs student code as the grader's own user (refused otherwise)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--hidden-dir", default=None,
                    help="a folder of more hidden checks (pytest test files) to run with the kit's own")
@@ -209,6 +221,16 @@ COMMANDS = {
                           register="add_cli"),
     "nbgrader": Command("autograder.nbgrader_course", help="build an nbgrader course graded by the hidden checks",
                         register="add_cli"),
+    "nbgrader-grade": Command("autograder.nbgrader_course", register="add_grade_cli", needs=("nbgrader",),
+                              install="pip install 'nbgrader>=0.9.6,<0.10'",
+                              help="score an nbgrader course's submissions with the kit's grader (after nbgrader "
+                                   "autograde)"),
+    "similar": Command("autograder.review.__main__", "similar_command",
+                       "rank pairs of submissions whose code looks alike, per function (CSV, JSON, HTML)",
+                       arguments="similar_arguments"),
+    "report": Command("autograder.review.__main__", "report_command",
+                      "the class report of a graded folder: pass shares, named mistakes, histograms, Canvas CSV",
+                      arguments="report_arguments", needs=("matplotlib",), install="pip install matplotlib"),
 }
 
 

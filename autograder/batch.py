@@ -51,6 +51,7 @@ from core.text import write_atomic
 from . import grade
 from .config import GradingConfig, configuration, configuration_changes, load_config, tests_fingerprint
 from .gradebook import BatchRecord, earlier_records, read_state, write_grades_csv, write_summary
+from .canary import check as canary_check
 from .grade import KIT_ROOT, hidden_cache
 from .hidden.inputs import build_hidden_inputs
 from .results import SubmissionResult
@@ -179,7 +180,7 @@ def _hidden_for_sandbox(paths: Sequence[Path], out: Path, config: GradingConfig)
 
 
 def open_sandbox(*, hidden: Sequence[Path] = (), isolation: str = "auto", limits: ResourceLimits | None = None,
-                 attempts: int = 3) -> Sandbox:
+                 attempts: int = 3, allow_weak: bool = False) -> Sandbox:
     """A Sandbox for grading; with "auto" as root, retried when it comes up weaker than namespaces.
 
     As root the namespaces level normally works, so a weaker one means its probe failed for a
@@ -188,8 +189,8 @@ def open_sandbox(*, hidden: Sequence[Path] = (), isolation: str = "auto", limits
     """
     options = {"limits": limits} if limits is not None else {}
     for attempt in range(attempts):
-        box = Sandbox(KIT_ROOT, hidden=hidden, isolation=isolation, **options)
-        if isolation != "auto" or os.geteuid() != 0 or box.isolation.level == "namespaces":
+        box = Sandbox(KIT_ROOT, hidden=hidden, isolation=isolation, allow_weak=allow_weak, **options)
+        if isolation != "auto" or os.geteuid() != 0 or box.isolation.level in ("namespaces", "uid"):
             return box
         if attempt == attempts - 1:
             print(f"warning: the sandbox runs at the {box.isolation.level} level ({'; '.join(box.isolation.notes)})",
@@ -349,7 +350,8 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
                 isolation: str = "auto", limits: ResourceLimits | None = None,
                 on_done: Callable[[BatchRecord], None] | None = None,
                 extra_tests: Sequence[str | os.PathLike] | str | os.PathLike | None = (),
-                regrade: Sequence[str] = (), regrade_all: bool = False) -> list[BatchRecord]:
+                regrade: Sequence[str] = (), regrade_all: bool = False, allow_weak: bool = False,
+                canary: bool = True) -> list[BatchRecord]:
     """Grade ``paths`` into ``out`` with ``jobs`` workers (threads, each with its own Sandbox).
 
     Returns one BatchRecord per path, in the order given, and writes ``out/grades.csv``,
@@ -358,11 +360,17 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
     names graded again anyway; ``regrade_all``: grade everything again, even into a folder of
     another configuration.  ``extra_tests``: test files or folders run beside
     ``autograder/hidden`` (an instructor's new checks); they are part of the configuration.
+    ``allow_weak``: accept a sandbox level that runs student code as the grader's own user
+    (refused otherwise).  ``canary``: grade the answer key first, in the batch's own sandbox and
+    configuration, and grade nothing unless it gets full marks (only the kit's own tests of the
+    batch machinery turn it off).
 
     Raises
     ------
     ConfigurationMismatch
         When ``out`` holds results of another configuration (and not ``regrade_all``).
+    autograder.canary.CanaryFailed
+        When the answer key loses points in this sandbox and configuration: nothing is graded.
     BatchInterrupted
         After Ctrl-C (SIGINT or SIGTERM, when called from the main thread), once grades.csv is
         written for what finished.
@@ -392,13 +400,13 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
             resume = False
         return _run(paths, names, out, jobs=jobs, config=config, record=record, resume=resume, progress=progress,
                     isolation=isolation, limits=limits, on_done=on_done, extra_tests=extra_tests,
-                    forced=set(regrade), note=note)
+                    forced=set(regrade), note=note, allow_weak=allow_weak, canary=canary)
     finally:
         os.close(lock)
 
 
 def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, isolation, limits, on_done,
-         extra_tests, forced, note) -> list[BatchRecord]:
+         extra_tests, forced, note, allow_weak=False, canary=True) -> list[BatchRecord]:
     key = record["key"]
     levels: set = set()
     _write_configuration(out, record, levels)
@@ -416,7 +424,7 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
 
     def sandbox() -> Sandbox:
         if getattr(local, "box", None) is None:
-            box = open_sandbox(hidden=sandbox_hidden, isolation=isolation, limits=limits)
+            box = open_sandbox(hidden=sandbox_hidden, isolation=isolation, limits=limits, allow_weak=allow_weak)
             with boxes_lock:
                 boxes.append(box)
             local.box = box
@@ -519,6 +527,15 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
 
     pending = suspects + rest
     n_suspects = len(suspects)
+    if canary and pending:
+        # In the main thread, before any worker: a refusal must stop the batch, not become an
+        # internal error per submission.
+        report = canary_check(sandbox(), hidden_inputs, extra_tests=extra_tests)
+        level = (report.isolation or {}).get("level", "?")
+        weak = " **WEAK isolation: student code ran as the grader's own user**" if (report.isolation or {}).get("weak") else ""
+        note = "\n".join(x for x in (note, f"Canary: the answer key got full marks ({report.score:g} points, base "
+                                             f"total {report.max_score:g}) in {report.seconds:.1f} s at the {level} "
+                                             f"level.{weak}") if x)
     threads = [threading.Thread(target=worker, name=f"grade-{i}", daemon=True)
                for i in range(min(jobs, max(len(pending), 1)))]
     for t in threads:

@@ -76,41 +76,54 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
             "seconds_read": t1 - t0, "seconds_compare": t2 - t1, "seconds_total": time.perf_counter() - t0}
 
 
+def similar_arguments(p) -> None:
+    p.add_argument("submissions", nargs="+")
+    p.add_argument("--out", required=True)
+    p.add_argument("--top", type=int, default=20, help="pairs listed per function (flagged pairs always are)")
+    p.add_argument("--keep-starter", action="store_true", help="do not subtract the handout's code")
+
+
+def report_arguments(p) -> None:
+    p.add_argument("graded")
+    p.add_argument("--out", required=True)
+    p.add_argument("--assignment", default="HW4 autograded", help="the Canvas assignment column's name")
+    p.add_argument("--roster", help="a Canvas gradebook export, to fill Student, ID, SIS User ID and Section")
+    p.add_argument("--per-question", action="store_true", help="one Canvas column per question too")
+
+
+def similar_command(args) -> int:
+    done = run_similar(args.submissions, args.out, top=args.top, keep_starter=args.keep_starter)
+    print(f"{done['submissions']} submissions compared in {done['seconds_total']:.1f} s; "
+          f"{done['flagged']} pair(s) to look at.")
+    for k in ("csv", "json", "html"):
+        print(f"  {done[k]}")
+    return 0
+
+
+def report_command(args) -> int:
+    from .report import write_report
+
+    t0 = time.perf_counter()
+    written = write_report(args.graded, args.out, assignment=args.assignment, roster=args.roster,
+                           per_question=args.per_question)
+    print(f"class report written in {time.perf_counter() - t0:.1f} s:")
+    for k in ("html", "tests", "mistakes", "grades", "canvas"):
+        print(f"  {written[k]}")
+    return 0
+
+
 def main(argv=None) -> int:
+    """``python -m autograder.review similar|report ...`` (also ``python -m autograder similar|report``)."""
     parser = argparse.ArgumentParser(prog="python -m autograder.review", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    s = sub.add_parser("similar", help="look-alike code per homework function")
-    s.add_argument("submissions", nargs="+")
-    s.add_argument("--out", required=True)
-    s.add_argument("--top", type=int, default=20, help="pairs listed per function (flagged pairs always are)")
-    s.add_argument("--keep-starter", action="store_true", help="do not subtract the handout's code")
-    r = sub.add_parser("report", help="the class report of a graded folder")
-    r.add_argument("graded")
-    r.add_argument("--out", required=True)
-    r.add_argument("--assignment", default="HW4 autograded", help="the Canvas assignment column's name")
-    r.add_argument("--roster", help="a Canvas gradebook export, to fill Student, ID, SIS User ID and Section")
-    r.add_argument("--per-question", action="store_true", help="one Canvas column per question too")
+    similar_arguments(sub.add_parser("similar", help="look-alike code per homework function"))
+    report_arguments(sub.add_parser("report", help="the class report of a graded folder"))
     args = parser.parse_args(argv)
     try:
-        if args.command == "similar":
-            done = run_similar(args.submissions, args.out, top=args.top, keep_starter=args.keep_starter)
-            print(f"{done['submissions']} submissions compared in {done['seconds_total']:.1f} s; "
-                  f"{done['flagged']} pair(s) to look at.")
-            for k in ("csv", "json", "html"):
-                print(f"  {done[k]}")
-        else:
-            from .report import write_report
-
-            t0 = time.perf_counter()
-            written = write_report(args.graded, args.out, assignment=args.assignment, roster=args.roster,
-                                   per_question=args.per_question)
-            print(f"class report written in {time.perf_counter() - t0:.1f} s:")
-            for k in ("html", "tests", "mistakes", "grades", "canvas"):
-                print(f"  {written[k]}")
+        return similar_command(args) if args.command == "similar" else report_command(args)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    return 0
 
 
 if __name__ == "__main__":
