@@ -156,7 +156,8 @@ def _causes(sandbox: Sandbox, lost: list[str], staff: dict, result: SubmissionRe
                           f"environment is readable by other users.")
         if failed:
             causes.append("Import errors in the sandbox: " + "; ".join(f"{k}: {v}" for k, v in failed.items()))
-    if re.search(r"took more than|time budget ran out|timed? ?out", text) and not missing:
+    if re.search(r"took more than|used more than|used up its time|taking too long|time budget ran out|timed? ?out",
+                 text) and not missing:
         causes.append("Checks ran out of time: the machine is too slow or too busy for the time limits "
                       "(use fewer --jobs, or raise the limits in the grading configuration).")
     if re.search(r"[Pp]ermission denied", text) and not missing:

@@ -25,17 +25,31 @@ Contents of the zip (paths relative to /autograder/source):
 ``hidden_inputs/``                    the hidden inputs made at build time from that config
                                       (``autograder.hidden.inputs.save``), so that no container
                                       makes them again
+``answer_key.zip``                    the answer-key submission (``autograder.key``), graded by
+                                      the canary before every submission (a container has
+                                      neither kit/ nor notebooks/key to make it)
 ``BUNDLE.json``                       what was built, when, with which limits and visibility
                                       (no secrets)
 ====================================  ==========================================================
 
-Time limits fit the container.  Each check's designed limit (``time_scale`` 1 of the grading
-settings) is multiplied by ``time_factor`` (default 0.1: the answer key needs well under a tenth
-of any designed limit) and by the container's measured slowness: before grading, a fixed
-single-threaded loop (``calibrate``) is timed against this kit's reference machine, so a container
-with half a CPU, or a busy neighbour, gets limits twice as long in wall-clock seconds, that is the
-same CPU seconds.  A submission whose every function hangs then costs each function one short
-limit (about 50 s in all at full speed, under 120 s at 0.5 vCPU) instead of the designed minutes.
+Time limits are CPU seconds fitted to the container.  Each check's designed limit (``time_scale``
+1 of the grading settings) is multiplied by ``time_factor`` (default 0.1: the answer key needs
+well under a tenth of any designed limit) and by the container's measured slowness: before
+grading, a fixed single-threaded loop (``calibration``) is timed against this kit's reference
+machine, in CPU seconds (slower cores get more CPU seconds) and in wall-clock seconds (their
+ratio is the share of a CPU the container gives: 0.5 at 0.5 vCPU).  The sandbox counts each call's
+limit on the CPU clock (``ResourceLimits(clock="cpu")``): a call that computes is stopped by the
+child itself when its CPU seconds run out, however slow or shared the container, and a call
+that waits instead (sleep) is killed at ``wall_factor`` times its limit in wall-clock seconds
+(``wall_factor`` = 1.5 / share, at least 2).  A submission whose every function hangs then costs
+each function one short limit (about 50 s in all at full speed, under 120 s at 0.5 vCPU) instead
+of the designed minutes.
+
+The canary: before the submission, the answer key shipped in the bundle is graded in the very
+sandbox and configuration the submission gets (``autograder.canary``).  If it loses a point, the
+environment is broken (a package missing, limits too tight for this container...): nothing is
+graded, and results.json says that the autograder is broken, not the submission, with score 0
+and the reason for staff in ``extra_data.canary`` and the log.
 
 What students see (Gradescope's test visibility, per group, set at build time with
 ``--visibility GROUP=WHEN``; WHEN is visible, after_due_date, after_published or hidden):
@@ -88,6 +102,8 @@ __all__ = [
     "add_cli",
     "build_bundle",
     "calibrate",
+    "calibration",
+    "clock_settings",
     "config_file",
     "data_files",
     "grader_files",
@@ -109,6 +125,11 @@ REFERENCE_CALIBRATION = 0.19
 _CALIBRATION_LOOPS = 4_000_000
 _SLOWNESS_RANGE = (1.0, 8.0)  # never tighter than at the reference speed; at most 8 times looser
 HIDDEN_INPUTS_DIR = "hidden_inputs"
+KEY_NAME = "answer_key.zip"
+_WALL_FACTOR_RANGE = (2.0, 16.0)  # the wall-clock backstop of a call, in multiples of its CPU seconds
+BROKEN = ("The autograder is broken right now, so this submission was not graded (score 0 for now). "
+          "This is not a problem with your work: the autograder failed its own self-test (its answer key "
+          "did not get full marks). The course staff can see why; please resubmit later or contact them.")
 _SCRIPTS = ("setup.sh", "run_autograder")
 _SKIP_PARTS = {"__pycache__", ".ipynb_checkpoints", ".pytest_cache", ".mypy_cache", ".ruff_cache"}
 _SKIP_SUFFIXES = (".pyc", ".pyo")
@@ -237,6 +258,14 @@ def _check_visibility(visibility) -> dict:
     return out
 
 
+def key_file(scratch: Path) -> list[tuple[str, Path]]:
+    """The answer-key submission (``autograder.key``, owner-only) written under ``scratch/key``,
+    as the bundle's ``KEY_NAME``: what the canary grades on Gradescope."""
+    from .key import write_key_submission
+
+    return [(KEY_NAME, write_key_submission(scratch / "key", zip_it=True))]
+
+
 def hidden_inputs_file(scratch: Path) -> list[tuple[str, Path]]:
     """The hidden inputs of ``scratch/grader_config.json`` (written by ``config_file``), made now and
     saved by ``autograder.hidden.inputs.save`` under ``scratch/hidden_inputs``: the bundle's members."""
@@ -286,7 +315,7 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
     with tempfile.TemporaryDirectory(prefix="hw4-gradescope-") as tmp:
         scratch = Path(tmp)
         members = grader_files(root) + data_files(root, scratch) + config_file(scratch, allow_dev_secret=allow_dev_secret)
-        members += hidden_inputs_file(scratch)
+        members += hidden_inputs_file(scratch) + key_file(scratch)
         names = [n for n, _ in members]
         if len(set(names)) != len(names) or set(names) & set(_SCRIPTS):
             raise ValueError(f"kit_root: two bundle files would share a path: {sorted(names)}")
@@ -302,7 +331,7 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
                     _add(zf, name, text.encode("utf-8"), executable=True)
                 _add(zf, "BUNDLE.json", (json.dumps(info, indent=2) + "\n").encode("utf-8"))
                 for name, path in sorted(members):
-                    _add(zf, name, path.read_bytes())
+                    _add(zf, name, path.read_bytes(), private=name == KEY_NAME)
             os.replace(partial, out)
         except BaseException:
             Path(partial).unlink(missing_ok=True)
@@ -310,10 +339,10 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
     return out
 
 
-def _add(zf: zipfile.ZipFile, name: str, data: bytes, *, executable: bool = False) -> None:
+def _add(zf: zipfile.ZipFile, name: str, data: bytes, *, executable: bool = False, private: bool = False) -> None:
     info = zipfile.ZipInfo(name, date_time=_ZIP_DATE)
     info.compress_type = zipfile.ZIP_DEFLATED
-    mode = 0o755 if executable else 0o644
+    mode = 0o755 if executable else 0o600 if private else 0o644
     info.external_attr = (stat.S_IFREG | mode) << 16
     info.create_system = 3  # Unix, so that unzip restores the modes
     zf.writestr(info, data)
@@ -361,12 +390,13 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
     start = time.monotonic()
     settings = _bundle_settings(root / "source")
     timing: dict = {}
+    staff: dict = {}
     path, why = _submission_path(root / "submission")
     if path is None:
         result = SubmissionResult.failed(why)
     else:
         try:
-            result = _grade(path, root, settings["time_factor"], timing)
+            result = _grade(path, root, settings["time_factor"], timing, staff)
         except Exception:  # noqa: BLE001 - whatever broke, the student still gets a result
             traceback.print_exc(file=sys.stdout)
             result = SubmissionResult.failed("the autograder hit an internal error; the course staff can see its log")
@@ -374,6 +404,8 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
         result = dataclasses.replace(result, execution_time=time.monotonic() - start)
     data = result.to_gradescope(visibility=settings["visibility"])
     data["extra_data"]["timing"] = timing  # staff only: extra_data is not shown to students
+    if "canary" in staff:
+        data["extra_data"]["canary"] = staff["canary"]
     from core.text import write_atomic
 
     write_atomic(results / "results.json", json.dumps(data, indent=2, allow_nan=False), mode=0o600)
@@ -398,26 +430,47 @@ def _bundle_settings(source: Path) -> dict:
     return out
 
 
-def calibrate(rounds: int = 3) -> float:
-    """Seconds this machine takes, now, for the fixed single-threaded loop (median of ``rounds``).
+def calibration(rounds: int = 3) -> tuple[float, float]:
+    """``(wall, cpu)``: the wall-clock and the CPU seconds this machine takes, now, for the fixed
+    single-threaded loop (medians of ``rounds``).
 
-    Wall-clock time on purpose: a container with half a CPU, or a CPU shared with a busy
-    neighbour, takes longer, and so will the student's code.
+    CPU seconds measure the cores (what the CPU clock of the sandbox counts); wall-clock seconds
+    also count a container's CPU quota and busy neighbours, so ``cpu / wall`` is the share of a
+    CPU the code gets here.
     """
-    times = []
+    walls, cpus = [], []
     for _ in range(max(int(rounds), 1)):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         x = 0
         for i in range(_CALIBRATION_LOOPS):
             x = (x * 31 + i) % 1_000_003
-        times.append(time.perf_counter() - t)
-    return sorted(times)[len(times) // 2]
+        cpus.append(time.process_time() - c)
+        walls.append(time.perf_counter() - t)
+    mid = len(walls) // 2
+    return sorted(walls)[mid], sorted(cpus)[mid]
+
+
+def calibrate(rounds: int = 3) -> float:
+    """Wall-clock seconds this machine takes, now, for the fixed loop (``calibration``'s first)."""
+    return calibration(rounds)[0]
+
+
+def clock_settings(wall: float, cpu: float) -> tuple[float, float]:
+    """``(share, wall_factor)`` from a ``calibration``: the share of a CPU the code gets here
+    (``cpu / wall``, in [0.05, 1]) and the multiple of a call's CPU seconds after which the
+    grader kills a call that waits instead of computing (1.5 / share, in ``_WALL_FACTOR_RANGE``)."""
+    for name, v in (("wall", wall), ("cpu", cpu)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (v > 0 and math.isfinite(v)):
+            raise ValueError(f"{name}: expected a positive number of seconds, got {v!r}")
+    share = min(max(cpu / wall, 0.05), 1.0)
+    lo, hi = _WALL_FACTOR_RANGE
+    return share, min(max(1.5 / share, lo), hi)
 
 
 def limits_scale(measured: float, time_factor: float = DEFAULT_TIME_FACTOR) -> tuple[float, float]:
     """``(slowness, time scale)``: how much slower than the reference machine ``measured`` (the
-    seconds of ``calibrate``) is, clipped to ``_SLOWNESS_RANGE``, and the factor every check's
-    designed time limit is multiplied by here (``time_factor * slowness``)."""
+    seconds of the calibration loop, CPU seconds on Gradescope) is, clipped to ``_SLOWNESS_RANGE``,
+    and the factor every check's designed time limit is multiplied by here (``time_factor * slowness``)."""
     if not (isinstance(measured, (int, float)) and measured > 0 and math.isfinite(measured)):
         raise ValueError(f"measured: expected a positive number of seconds, got {measured!r}")
     lo, hi = _SLOWNESS_RANGE
@@ -460,14 +513,16 @@ def hideable(paths) -> list[Path]:
 
 
 def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
-           timing: dict | None = None) -> SubmissionResult:
+           timing: dict | None = None, staff: dict | None = None) -> SubmissionResult:
+    from . import canary
     from .config import load_config
     from .grade import grade_submission
-    from .sandbox import Sandbox
+    from .sandbox import ResourceLimits, Sandbox
     from .submission import SubmissionError, load_submission
     from .hidden.inputs import HiddenInputs, build_hidden_inputs
 
     timing = timing if timing is not None else {}
+    staff = staff if staff is not None else {}
     try:
         # Cheap, so an unreadable upload is told so at once, before scenes and sandbox are made.
         if not load_submission(path).notebooks:
@@ -483,14 +538,28 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
     timing["hidden_inputs"] = "bundled" if hidden is not None else "made"
     hidden = hidden or build_hidden_inputs(config)
     timing["hidden_inputs_seconds"] = round(time.monotonic() - t, 3)
-    measured = calibrate()
-    slowness, scale = limits_scale(measured, time_factor)
-    timing.update(calibration_seconds=round(measured, 4), slowness=round(slowness, 3),
+    wall, cpu = calibration()
+    slowness, scale = limits_scale(cpu, time_factor)  # CPU seconds: how slow this container's cores are
+    share, wall_factor = clock_settings(wall, cpu)
+    timing.update(clock="cpu", calibration_seconds=round(wall, 4), calibration_cpu_seconds=round(cpu, 4),
+                  slowness=round(slowness, 3), cpu_share=round(share, 3), wall_factor=round(wall_factor, 2),
                   time_scale=round(config.time_scale * scale, 4))
     # The same inputs with this container's limits (the checks read them from config.time_scale).
     hidden = HiddenInputs(dataclasses.replace(config, time_scale=config.time_scale * scale), None, hidden.prepared)
-    # All of root: the grader, the results, Gradescope's submission metadata.
-    with Sandbox(source, hidden=hideable([root, config.source, config.official_dir()])) as box:
+    limits = ResourceLimits(clock="cpu", wall_factor=wall_factor)
+    # All of root: the grader, the results, Gradescope's submission metadata, the answer key.
+    with Sandbox(source, hidden=hideable([root, config.source, config.official_dir()]), limits=limits) as box:
+        key = source / KEY_NAME
+        t = time.monotonic()
+        try:
+            report = canary.check(box, hidden, key=key if key.is_file() else None)
+        except canary.CanaryFailed as exc:
+            timing["canary_seconds"] = round(time.monotonic() - t, 3)
+            staff["canary"] = {"passed": False, "reason": str(exc)}
+            print(f"AUTOGRADER BROKEN (the canary failed; the submission was not graded): {exc}")
+            return SubmissionResult.failed(BROKEN, isolation=box.isolation.as_dict())
+        timing["canary_seconds"] = round(time.monotonic() - t, 3)
+        staff["canary"] = {"passed": True, "score": report.score, "max_score": report.max_score}
         return grade_submission(path, sandbox=box, hidden_inputs=hidden)
 
 

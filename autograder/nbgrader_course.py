@@ -237,7 +237,7 @@ def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict)
 
 
 def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=None, config=None,
-                 isolation: str = "auto", progress=None) -> dict:
+                 isolation: str = "auto", progress=None, log=print) -> dict:
     """Grade every submission of ``assignment`` with the kit's grader and write the points into
     the course's gradebook; run after ``nbgrader autograde``.  Returns student -> SubmissionResult.
 
@@ -248,6 +248,9 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
     ``extra_credit``), replacing whatever autograde recorded, and the question's feedback becomes
     that cell's output in ``autograded/`` (what ``generate_feedback`` shows).
 
+    First the canary (``autograder.canary.check``): the answer key, graded in the very sandbox and
+    with the same hidden inputs, must get every point, or no student is graded.
+
     Parameters
     ----------
     course : the nbgrader course folder (with nbgrader_config.py and gradebook.db).
@@ -255,15 +258,20 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
     config : ``GradingConfig`` (default: ``load_config()``, as ``python -m autograder grade``).
     isolation : the sandbox level ("auto": the strongest that works here).
     progress : optional callable(student, result) called after each student.
+    log : callable(str) given one line when the canary passed (default ``print``; None: silent).
 
     Raises
     ------
     ValueError
         When ``course`` has no gradebook or a named student has no submission, or a student
         graded here was not autograded by nbgrader first (no submission in the gradebook).
+    CanaryFailed (a ValueError)
+        When the answer key did not get full marks here; its message says why and how to fix
+        it, and the gradebook is left untouched.
     """
     from nbgrader.api import Gradebook, MissingEntry
 
+    from . import canary
     from .config import load_config
     from .grade import grade_submission
     from .hidden.inputs import build_hidden_inputs
@@ -285,6 +293,10 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
                 raise ValueError(f"students: {student} has no autograded submission of {assignment} in "
                                  f"the gradebook; run nbgrader autograde first") from None
     with Sandbox(KIT_ROOT, hidden=hideable([course, config.source, config.official_dir()]), isolation=isolation) as box:
+        report = canary.check(box, hidden)  # raises CanaryFailed: nothing graded, nothing written
+        if log is not None:
+            log(f"canary: the answer key got {report.score:g} / {report.max_score:g} in this sandbox "
+                f"({box.isolation.summary()}) in {report.seconds:.1f} s; grading {len(names)} submissions")
         for student in names:
             folder = course / "submitted" / student / assignment
             result = grade_submission(folder, sandbox=box, hidden_inputs=hidden, student_id=student)

@@ -301,6 +301,50 @@ def test_broken_kit_still_gives_a_result(gradescope_dir):
 
 
 # ------------------------------------------------------------------------------------------------
+# the canary: the bundled answer key graded before every submission
+
+
+def test_bundle_ships_the_answer_key_owner_only(bundle, names):
+    assert gradescope.KEY_NAME in names
+    with zipfile.ZipFile(bundle) as zf:
+        assert (zf.getinfo(gradescope.KEY_NAME).external_attr >> 16) & 0o077 == 0
+        with zipfile.ZipFile(zf.open(gradescope.KEY_NAME)) as key:
+            assert sorted(Path(n).stem for n in key.namelist()) == sorted(NOTEBOOKS)
+    assert "umask 077" in gradescope.render_asset("run_autograder")
+
+
+def assert_autograder_broken(data: dict) -> str:
+    """The results.json of a failed canary: a zero that blames the autograder, the reason for staff."""
+    assert_valid_results(data)
+    assert data["score"] == 0 and data["tests"] == []
+    assert "autograder is broken" in data["output"] and "not a problem with your work" in data["output"]
+    canary = data["extra_data"]["canary"]
+    assert canary["passed"] is False and canary["reason"].startswith("canary:")
+    assert canary["reason"] not in data["output"]  # the why is for staff (extra_data, the log)
+    return canary["reason"]
+
+
+def test_a_damaged_answer_key_in_the_bundle_says_the_autograder_is_broken(gradescope_dir):
+    (gradescope_dir / "source" / gradescope.KEY_NAME).write_bytes(b"PK\x03\x04 truncated upload")
+    put(gradescope_dir, *sorted(KEY.glob("*.ipynb")))
+    reason = assert_autograder_broken(run_autograder(gradescope_dir))
+    assert "not graded" in reason
+
+
+def test_limits_too_tight_for_the_container_say_the_autograder_is_broken(gradescope_dir):
+    # Time limits far too short for this container (a time factor of 1e-5 in the bundle): the key
+    # runs out of time everywhere, so the student's submission must not be graded at all.
+    info_path = gradescope_dir / "source" / "BUNDLE.json"
+    info = json.loads(info_path.read_text())
+    info_path.write_text(json.dumps({**info, "time_factor": 1e-5}))
+    put(gradescope_dir, *sorted(KEY.glob("*.ipynb")))
+    data = run_autograder(gradescope_dir)
+    reason = assert_autograder_broken(data)
+    assert "full marks" in reason and "out of time" in reason
+    assert data["extra_data"]["timing"]["clock"] == "cpu" and data["extra_data"]["timing"]["canary_seconds"] > 0
+
+
+# ------------------------------------------------------------------------------------------------
 # fitting the platform: precomputed inputs, calibrated limits, visibility, extra credit apart
 
 
@@ -336,6 +380,16 @@ def test_limits_scale_with_the_measured_slowness():
     assert 0 < gradescope.calibrate(rounds=1) < 60
 
 
+def test_cpu_clock_settings_follow_the_measured_share_of_a_cpu():
+    wall, cpu = gradescope.calibration(rounds=1)
+    assert 0 < cpu <= wall * 1.05 + 0.01
+    assert gradescope.clock_settings(1.0, 1.0) == pytest.approx((1.0, 2.0))   # a whole CPU: backstop at 2x
+    assert gradescope.clock_settings(2.0, 1.0) == pytest.approx((0.5, 3.0))   # 0.5 vCPU: 1.5 / 0.5
+    assert gradescope.clock_settings(1000.0, 1.0) == pytest.approx((0.05, 16.0))
+    with pytest.raises(ValueError, match="cpu"):
+        gradescope.clock_settings(1.0, 0)
+
+
 def test_results_show_base_points_and_extra_credit_apart_with_per_group_visibility():
     from autograder.results import QuestionResult, SubmissionResult, TestResult
     from core.manifest import question
@@ -366,6 +420,8 @@ def test_results_json_uses_the_bundled_inputs_and_calibrated_limits(gradescope_d
     assert_valid_results(data)
     timing = data["extra_data"]["timing"]
     assert timing["hidden_inputs"] == "bundled" and timing["slowness"] >= 1 and timing["time_scale"] > 0
+    assert timing["clock"] == "cpu" and timing["wall_factor"] >= 2 and 0 < timing["cpu_share"] <= 1
+    assert data["extra_data"]["canary"]["passed"] is True and timing["canary_seconds"] > 0
     assert {t["visibility"] for t in data["tests"] if "score" in t} == {"visible"}
     assert {t["visibility"] for t in data["tests"] if "score" not in t} <= {"after_published", "hidden"}
     assert "Base points:" in data["output"]

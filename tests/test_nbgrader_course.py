@@ -155,6 +155,32 @@ def test_scoring_needs_the_courses_own_secret_and_a_gradebook(tmp_path, monkeypa
 
 
 @needs_nbgrader
+def test_the_canary_runs_before_any_student_and_a_failed_one_refuses(tmp_path, monkeypatch):
+    from autograder import canary
+
+    course = tmp_path / "course"
+    (course / "submitted").mkdir(parents=True)
+    (course / "nbgrader_config.py").write_text("c = get_config()\n")
+    (course / "gradebook.db").write_bytes(b"")
+    seen, lines = [], []
+
+    def fake_check(box, hidden, **kw):
+        seen.append((box.isolation.level, hidden.config.time_scale))
+        return canary.CanaryReport(75.0, 75.0, 0.5, box.isolation.as_dict())
+
+    monkeypatch.setattr(canary, "check", fake_check)
+    assert nc.grade_course(course, config=quick_config(), log=lines.append) == {}
+    assert len(seen) == 1 and lines and lines[0].startswith("canary: the answer key got 75 / 75")
+
+    def failing(box, hidden, **kw):
+        raise canary.CanaryFailed("canary: the answer key did not get full marks (on purpose)")
+
+    monkeypatch.setattr(canary, "check", failing)
+    with pytest.raises(ValueError, match="on purpose"):
+        nc.grade_course(course, config=quick_config(), log=lines.append)
+
+
+@needs_nbgrader
 def test_course_config_runs_nothing_of_the_kit(tmp_path, grading_settings):
     from traitlets.config.loader import PyFileConfigLoader
 
@@ -222,7 +248,9 @@ def test_nbgrader_end_to_end_with_a_tampering_student(tmp_path, grading_settings
     # Before the kit's step, the hidden-check cells are worth nothing, whatever the kernels did.
     for student in ("a-key", "b-tamper", "c-untouched"):
         assert set(nc.kit_scores(course, student).values()) == {0.0}
-    results = nc.grade_course(course, config=load_config())
+    canary_lines = []
+    results = nc.grade_course(course, config=load_config(), log=canary_lines.append)
+    assert canary_lines and canary_lines[0].startswith("canary: the answer key got")  # the real canary ran
     after = course_digest(course)
     assert after == before, {k for k in set(before) | set(after) if before.get(k) != after.get(k)}
 
