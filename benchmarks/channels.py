@@ -1,6 +1,8 @@
 """Benchmark of the Gradescope channel at half a CPU: ``run_autograder`` on the answer key and on a
 submission whose every function hangs, in a folder laid out like /autograder, beside the answer key
 alone at full speed, in one run.  Target: the all-hang submission under 120 s at 0.5 vCPU.
+Each row shows the limits' clock (cpu on Gradescope), the measured CPU share, the wall-clock
+backstop's multiple and the seconds the canary (the bundled answer key) took before grading.
 
     python benchmarks/channels.py [--vcpu 0.5] [--keep DIR]
 
@@ -126,12 +128,15 @@ def main(argv=None) -> int:
         print(f"emulation: {args.vcpu} vCPU by {how}")
         rows.append(("answer key", f"{args.vcpu} vCPU", run(bundle, key, work / "key-half", prefix)))
         rows.append(("every function hangs", f"{args.vcpu} vCPU", run(bundle, hang, work / "hang-half", prefix)))
-    print(f"{'submission':22s} {'CPU':>10s} {'seconds':>8s} {'score':>6s} {'tests':>6s} {'slowness':>9s} {'scale':>6s}  inputs")
+    print(f"{'submission':22s} {'CPU':>10s} {'seconds':>8s} {'score':>6s} {'tests':>6s} {'slowness':>9s} {'scale':>6s} "
+          f"{'clock':>5s} {'share':>5s} {'backstop':>8s} {'canary':>6s}  inputs")
+    nan = float("nan")
     for name, cpu, r in rows:
         tm = r["timing"]
         print(f"{name:22s} {cpu:>10s} {r['seconds']:8.1f} {r['score']:6g} {r['tests']:6d} "
-              f"{tm.get('slowness', float('nan')):9.2f} {tm.get('time_scale', float('nan')):6.3f}  {tm.get('hidden_inputs')}"
-              + (f"  FAILED: {r['failure']}" if r["failure"] else ""))
+              f"{tm.get('slowness', nan):9.2f} {tm.get('time_scale', nan):6.3f} {tm.get('clock', 'wall'):>5s} "
+              f"{tm.get('cpu_share', nan):5.2f} {tm.get('wall_factor', nan):8.2f} {tm.get('canary_seconds', nan):6.1f}"
+              f"  {tm.get('hidden_inputs')}" + (f"  FAILED: {r['failure']}" if r["failure"] else ""))
     hang_seconds = rows[-1][2]["seconds"]
     print(f"target: every function hangs under 120 s at {args.vcpu} vCPU: {'met' if hang_seconds < 120 else 'MISSED'} "
           f"({hang_seconds:.1f} s)")
