@@ -1,11 +1,13 @@
 """Grading one submission: the hidden checks (``autograder/hidden``, pytest tests) run on it.
 
-``grade_submission`` runs ``python -m pytest autograder/hidden --submission PATH`` as a process of
-the grader, with the plugin of ``autograder/hidden/plugin.py``: the student's code is loaded once
-in a session of the grader's sandbox (attached, not probed again), every check is a pytest test
-calling it, and the plugin writes the ``SubmissionResult`` as JSON into a folder of the grader's
-own.  The hidden inputs are made once per batch and cached in that folder (mode 0700, hidden from
-the sandbox), so each submission's pytest run loads them instead of making them again.  The CLI
+``grade_submission`` runs ``pytest autograder/hidden --submission PATH`` (``pytest_command``) in a
+grading worker of the grader (``autograder.hidden.worker``: a process that runs one pytest session
+after another, so imports and the hidden inputs are loaded once per worker, not per submission;
+one worker per concurrent grading, kept for the next submission), with the plugin of
+``autograder/hidden/plugin.py``: the student's code is loaded once in a session of the grader's
+sandbox (attached, not probed again), every check is a pytest test calling it, and the plugin
+writes the ``SubmissionResult`` as JSON into a folder of the grader's own.  The hidden inputs are
+made once per batch and cached in that folder (mode 0700, hidden from the sandbox).  The CLI
 (``autograder.batch``), Gradescope (``autograder.gradescope``) and the nbgrader course
 (``autograder.nbgrader_course``) all grade through this function, so they run the same tests.
 """
@@ -15,6 +17,7 @@ from __future__ import annotations
 import atexit
 import json
 import os
+import selectors
 import shutil
 import subprocess
 import sys
@@ -28,7 +31,6 @@ from .hidden import inputs
 from .hidden.inputs import HiddenInputs
 from .results import SubmissionResult
 from .sandbox import Sandbox
-from .submission import SubmissionError, load_submission
 
 __all__ = ["HIDDEN_DIR", "KIT_ROOT", "grade_submission", "pytest_command"]
 
@@ -39,6 +41,8 @@ _MARGIN = 120.0             # seconds a pytest run may take beyond the session's
 
 _caches: dict[int, tuple[HiddenInputs, Path]] = {}
 _caches_lock = threading.Lock()
+_idle: list = []                   # grading workers (_Worker) waiting for a submission
+_idle_lock = threading.Lock()
 
 
 def _private_folder(prefix: str) -> Path:
@@ -55,6 +59,7 @@ def hidden_cache(hidden: HiddenInputs) -> Path:
             folder = _private_folder("hw4-hidden-")
             inputs.save(hidden, folder)
             found = _caches[id(hidden)] = (hidden, folder)
+            _warm_worker()
         return found[1]
 
 
@@ -63,9 +68,90 @@ def budget_of(hidden: HiddenInputs) -> float:
     return hidden.call_seconds() + hidden.config.load_timeout * (1 + _RESTARTS_BUDGETED) + 30
 
 
+class _Worker:
+    """One ``autograder.hidden.worker`` process: pytest sessions run on request, one at a time."""
+
+    def __init__(self):
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(KIT_ROOT), os.environ.get("PYTHONPATH", "")]),
+               "PYTHONDONTWRITEBYTECODE": "1"}
+        for var in ("PYTEST_ADDOPTS", "HW4_GRADER_SECRET", "HW4_GRADER_CONFIG"):
+            env.pop(var, None)  # the settings are the batch's, in config.json
+        r, w = os.pipe()
+        try:
+            self.proc = subprocess.Popen([sys.executable, "-m", "autograder.hidden.worker", str(w)], cwd=str(KIT_ROOT),
+                                         env=env, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                         stderr=subprocess.DEVNULL, pass_fds=(w,), text=True)
+        finally:
+            os.close(w)
+        self.answers = os.fdopen(r, "r")
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def run(self, argv: list[str], log: Path, timeout: float) -> int:
+        """pytest's exit code of ``argv``; RuntimeError when the worker died or took over ``timeout`` s."""
+        try:
+            self.proc.stdin.write(json.dumps({"argv": argv, "log": str(log)}) + "\n")
+            self.proc.stdin.flush()
+        except OSError as exc:
+            self.stop()
+            raise RuntimeError(f"the grading worker could not be reached ({exc})") from None
+        with selectors.DefaultSelector() as sel:
+            sel.register(self.answers, selectors.EVENT_READ)
+            if not sel.select(timeout):
+                self.stop()
+                raise RuntimeError(f"the grading process took more than {timeout:g} s")
+        line = self.answers.readline()
+        if not line:
+            self.stop()
+            raise RuntimeError(f"the grading worker ended (exit code {self.proc.returncode})")
+        answer = json.loads(line)
+        if "error" in answer:
+            raise RuntimeError(f"the grading worker failed: {answer['error']}")
+        return int(answer["exit"])
+
+    def stop(self) -> None:
+        """End the process (gently: end of its input; killed if it does not end in 5 s)."""
+        if self.alive():
+            try:
+                self.proc.stdin.close()
+                self.proc.wait(timeout=5)
+            except (OSError, subprocess.TimeoutExpired):
+                self.proc.kill()
+        self.proc.wait()
+        self.answers.close()
+
+
+def _warm_worker() -> None:
+    """Start a worker now (its imports overlap the grader's own setup) unless one is waiting."""
+    with _idle_lock:
+        if not any(w.alive() for w in _idle):
+            _idle.append(_Worker())
+
+
+def _take_worker() -> _Worker:
+    with _idle_lock:
+        while _idle:
+            worker = _idle.pop()
+            if worker.alive():
+                return worker
+            worker.stop()
+    return _Worker()
+
+
+@atexit.register
+def _stop_workers() -> None:
+    with _idle_lock:
+        workers = list(_idle)
+        _idle.clear()
+    for worker in workers:
+        worker.stop()
+
+
 def pytest_command(submission: Path, *, extra_tests: Sequence[Path] = (), options: Sequence[str] = ()) -> list[str]:
-    """argv of the pytest run that grades ``submission`` with the hidden checks (and ``extra_tests``)."""
-    return [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "autograder.hidden.plugin",
+    """pytest's arguments (after ``python -m pytest``) that grade ``submission`` with the hidden checks
+    (and ``extra_tests``)."""
+    return ["-q", "-W", "ignore::pytest.PytestAssertRewriteWarning", "-p", "no:cacheprovider", "-p", "autograder.hidden.plugin",
             "-c", str(HIDDEN_DIR / "pytest.ini"), "--rootdir", str(HIDDEN_DIR), "--no-header", "-o",
             "console_output_style=classic", str(HIDDEN_DIR), *[str(p) for p in extra_tests],
             "--submission", str(submission), *options]
@@ -81,7 +167,8 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
     path : the submission.
     sandbox : the grader's Sandbox (its sessions run the student's code; reusable).
     hidden_inputs : from ``autograder.hidden.inputs.build_hidden_inputs(config)``.
-    student_id : the name for the gradebook (default: the file or folder name).
+    student_id : the name for the gradebook (default: the file or folder name; ``autograder.batch``
+        gives its own).
     staff : optional dict that receives what only staff should see: ``stdout``, ``stderr``,
         ``log`` (grader notes and tracebacks), ``spawns`` and ``swept`` (child processes started,
         processes killed after the session).
@@ -93,23 +180,12 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
     zero, saying why) when the submission cannot be read.  Never raises for anything the
     submission contains or does; RuntimeError when the grading process itself broke.
     """
-    from .batch import submission_name
-
     start = time.monotonic()
     staff = staff if staff is not None else {}
     staff.setdefault("log", [])
     path = Path(path).resolve()
-    student_id = student_id or submission_name(path)
+    student_id = student_id or path.name
     isolation = sandbox.isolation.as_dict()
-    try:
-        sub = load_submission(path)
-    except SubmissionError as exc:
-        return SubmissionResult.failed(str(exc), student_id=student_id, isolation=isolation,
-                                       execution_time=time.monotonic() - start)
-    if not sub.notebooks:
-        return SubmissionResult.failed(
-            "no notebook of the homework was found (expected files such as q2_eightpoint.ipynb)",
-            student_id=student_id, isolation=isolation, execution_time=time.monotonic() - start)
     cache = hidden_cache(hidden_inputs)
     work = Path(tempfile.mkdtemp(prefix="run-", dir=cache))
     try:
@@ -122,18 +198,14 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
         argv = pytest_command(path, extra_tests=[Path(p).resolve() for p in extra_tests], options=[
             "--grading-config", str(config_file), "--hidden-cache", str(cache), "--sandbox-spec", str(spec),
             "--results", str(results), "--student-id", student_id, "--budget", repr(budget)])
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(KIT_ROOT), os.environ.get("PYTHONPATH", "")]),
-               "PYTHONDONTWRITEBYTECODE": "1"}
-        for var in ("PYTEST_ADDOPTS", "HW4_GRADER_SECRET", "HW4_GRADER_CONFIG"):
-            env.pop(var, None)  # the settings are the batch's, in config.json
-        try:
-            proc = subprocess.run(argv, cwd=str(KIT_ROOT), env=env, capture_output=True, text=True,
-                                  timeout=budget + _MARGIN, check=False)
-        except subprocess.TimeoutExpired:
-            raise RuntimeError(f"the grading process took more than {budget + _MARGIN:g} s") from None
-        if proc.returncode not in (0, 1) or not results.is_file():
-            tail = (proc.stdout + proc.stderr)[-4000:]
-            raise RuntimeError(f"the grading process failed (exit code {proc.returncode}):\n{tail}")
+        log = work / "pytest.log"
+        worker = _take_worker()
+        code = worker.run(argv, log, budget + _MARGIN)
+        with _idle_lock:
+            _idle.append(worker)
+        if code not in (0, 1, 5) or not results.is_file():  # 5: no check ran (an unreadable submission)
+            tail = log.read_text(errors="replace")[-4000:] if log.is_file() else ""
+            raise RuntimeError(f"the grading process failed (exit code {code}):\n{tail}")
         data = json.loads(results.read_text())
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -141,5 +213,8 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
     staff["log"] += list(got.get("log", []))
     staff.update({k: v for k, v in got.items() if k != "log"})
     result = SubmissionResult.from_dict(data["result"])
+    if result.failure:  # unreadable, or no notebook of the homework (checked by the plugin)
+        return SubmissionResult.failed(result.failure, student_id=student_id, isolation=isolation,
+                                       execution_time=time.monotonic() - start)
     return SubmissionResult(result.questions, student_id, result.isolation or isolation, result.notes, None,
                             time.monotonic() - start)

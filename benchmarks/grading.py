@@ -7,7 +7,8 @@ broken notebooks; the hostile ones are left out, they measure the sandbox rather
 repeated until there are --count.  Settings: the grader's defaults (``GradingConfig()``, the dev
 secret) or, with --quick, the small ones of the kit's tests.  The hidden inputs are made once,
 before the clock starts, as a real batch does; their cost is printed on its own, and so is the
-time of grading the answer key alone.
+time of grading the answer key alone.  The batches run without their canary (the answer key graded
+first, once per batch), whose cost is printed on its own too: the figures are those of grading.
 """
 
 from __future__ import annotations
@@ -60,14 +61,17 @@ def main(argv=None) -> int:
 
     key_out = root / "key"
     t0 = time.perf_counter()
-    key = grade_batch(paths[:1], key_out, jobs=1, config=config, resume=False, progress=False)[0]
+    key = grade_batch(paths[:1], key_out, jobs=1, config=config, resume=False, progress=False, canary=False)[0]
     print(f"answer key alone: {time.perf_counter() - t0:.1f} s, {key.score:g} points")
+    t0 = time.perf_counter()
+    grade_batch(paths[:1], root / "key-canary", jobs=1, config=config, resume=False, progress=False)
+    print(f"answer key with the batch's canary: {time.perf_counter() - t0:.1f} s")
 
     for jobs in (1, 2):
         out = root / f"out-jobs{jobs}"
         shutil.rmtree(out, ignore_errors=True)
         t0 = time.perf_counter()
-        records = grade_batch(paths, out, jobs=jobs, config=config, resume=False, progress=False)
+        records = grade_batch(paths, out, jobs=jobs, config=config, resume=False, progress=False, canary=False)
         seconds = time.perf_counter() - t0
         failed = sum(r.failure is not None for r in records)
         print(f"--jobs {jobs}: {len(records)} submissions in {seconds:.1f} s, "

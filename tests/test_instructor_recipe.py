@@ -3,7 +3,9 @@
 1. write it in a folder of one's own (never in the kit: it is hidden from students anyway);
 2. run it on one submission with pytest (``-p autograder.hidden.plugin --submission PATH``);
 3. grade the class with it (``python -m autograder grade ... --hidden-dir FOLDER``): its points
-   show up in every results.json, beside the kit's own checks.
+   show up in every results.json, beside the kit's own checks.  Every batch grades the answer key
+   first (the canary) with the extra checks too, and grades nothing unless the key gets full marks,
+   so the class's folder holds checks the key passes; a partial-credit check is tried in step 2 only.
 """
 
 from __future__ import annotations
@@ -34,6 +36,11 @@ def test_eightpoint_rank(student, grading_config):
     F = student.call("eightpoint", pts1, pts2, 640.0, seconds=10)
     assert np.shape(F) == (3, 3), f"F should be 3 x 3, got shape {np.shape(F)}"
     assert np.linalg.matrix_rank(F, tol=1e-9 * np.abs(F).max()) == 2, "F should have rank 2"
+'''
+
+PARTIAL_CHECK = '''
+import numpy as np
+import pytest
 
 
 @pytest.mark.points(2, question="Q2", name="eightpoint is not the identity")
@@ -52,17 +59,20 @@ def setup(tmp_path_factory):
     checks = root / "my_checks"
     checks.mkdir()
     (checks / "test_my_checks.py").write_text(NEW_CHECK)
+    partial = root / "my_partial_checks"
+    partial.mkdir()
+    (partial / "test_my_partial_checks.py").write_text(PARTIAL_CHECK)
     config = root / "grader.json"
     config.write_text(json.dumps(quick_config().to_dict()))
     key = write_key_submission(root / "subs")
     env = {k: v for k, v in os.environ.items() if k not in ("HW4_GRADER_SECRET", "HW4_GRADER_CONFIG")}
-    return {"root": root, "checks": checks, "config": config, "key": key, "env": env}
+    return {"root": root, "checks": checks, "partial": partial, "config": config, "key": key, "env": env}
 
 
 def test_new_check_runs_on_one_submission_with_pytest(setup):
     proc = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "autograder.hidden.plugin",
-         str(setup["checks"]), "--submission", str(setup["key"]), "--grading-config", str(setup["config"]),
+         str(setup["checks"]), str(setup["partial"]), "--submission", str(setup["key"]), "--grading-config", str(setup["config"]),
          "--results", str(setup["root"] / "one.json")],
         cwd=KIT_ROOT, env=setup["env"], capture_output=True, text=True, timeout=600, check=False)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
@@ -84,6 +94,6 @@ def test_class_graded_with_the_new_check_through_the_cli(setup):
     names = {t["name"]: t for t in data["tests"]}
     new = names["Q2 eightpoint gives F of rank 2 on random points"]
     assert (new["score"], new["max_score"]) == (3.0, 3.0)
-    assert names["Q2 eightpoint is not the identity"]["score"] == 1.0
+    assert "Q2 eightpoint is not the identity" not in names
     # The kit's own checks ran too: full marks on every question, plus the new points.
-    assert data["score"] == pytest.approx(90 + 3 + 1)
+    assert data["score"] == pytest.approx(90 + 3)

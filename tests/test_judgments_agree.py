@@ -5,9 +5,10 @@ every function of the homework with a self-check, the submission's functions are
 without a sandbox: each notebook's defining statements (core.notebook's rule set, as the grader
 keeps them) are executed in one fresh namespace.  Then
 
-- the hidden judgment: the module's hidden calls on the hidden inputs of a small grading config,
-  made through ``autograder.hidden.legacy.run_calls`` with a ``LocalStudent``, judged by the
-  module's ``judge``; a function is right when every hidden test of it has full marks;
+- the hidden judgment: the concept's pytest file (``autograder/hidden/test_<concept>.py``) run in
+  this process on the hidden inputs of a small grading config, the functions called through a
+  ``LocalStudent`` (``autograder.hidden.plugin.run_here``); a function is right when every hidden
+  test of it has full marks;
 - the public self-check, given those same hidden inputs explicitly (``scene=``, ``cases=``,
   ``problems=``, ``inputs=``, ``probes=``/``sequence=``); right when the report passed
   (for bundle adjustment both sides also get the public scene's problem: ``prepared_for``);
@@ -33,7 +34,8 @@ _HOSTILE = ("patched_numpy", "always_true", "exit", "infinite_loop", "bomb", "re
             "prints_fake", "process_left")
 PROGRAMS = [n for n, c in corpus.CASES.items() if c.post is None and not any(h in n for h in _HOSTILE)]
 
-# function -> (hidden module, the hidden tests that judge it: a name prefix per question id)
+# function -> (hidden concept: autograder/hidden/test_<concept>.py, the hidden tests that judge it:
+# a name prefix per question id)
 FUNCTIONS = {
     "eightpoint": ("fundamental", {"Q2": ""}),
     "essentialMatrix": ("essential", {"Q3.1": ""}),
@@ -78,22 +80,18 @@ def hidden():
 
 # --------------------------------------------------------------------------------- the inputs
 
-def prepared_for(hidden, module_name: str):
-    """The hidden module's prepared inputs, with the public check's own problem in where a
-    public-only input could hide a disagreement (bundle adjustment: the public scene's problem
-    replaces the last hidden one)."""
+def prepared_for(hidden, concept: str):
+    """The concept's prepared inputs, with the public check's own problem in where a public-only
+    input could hide a disagreement (bundle adjustment: the public scene's problem replaces the
+    last hidden one)."""
     import dataclasses
 
-    prepared = hidden.prepared[f"autograder.tests.{module_name}"]
-    if module_name == "bundle":
-        from autograder.tests.bundle import Problem
-        from judging.bundle import total_error
+    prepared = hidden.prepared[concept]
+    if concept == "bundle":
         from starter.checks.bundle import _generated_problem
         from starter.checks._scenes import two_view
 
-        pub = _generated_problem(two_view())
-        extra = Problem("the public scene", pub.K1, pub.K2, pub.p1, pub.p2, pub.M2_init, pub.w_init,
-                        total_error(pub.K1, pub.K2, pub.p1, pub.p2, pub.M2_init, pub.w_init), pub.optimum)
+        extra = dataclasses.replace(_generated_problem(two_view()), label="the public scene")
         # In place of the last hidden problem: the question's points stay those of two problems.
         prepared = dataclasses.replace(prepared, problems=(*prepared.problems[:-1], extra))
     return prepared
@@ -103,17 +101,15 @@ def prepared_for(hidden, module_name: str):
 
 def hidden_outcome(hidden, functions: dict, function: str) -> tuple[bool, set[str], str]:
     """(right, mistake codes named, feedback) of the hidden tests that judge ``function``."""
-    import importlib
+    import dataclasses
 
-    from autograder.hidden.legacy import run_calls
-    from autograder.hidden.plugin import LocalStudent
+    from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 
-    module_name, tests = FUNCTIONS[function]
-    module = importlib.import_module(f"autograder.tests.{module_name}")
-    prepared = prepared_for(hidden, module_name)
-    outcomes = run_calls(LocalStudent(functions), module.calls(prepared, hidden.config.time_scale))
+    concept, tests = FUNCTIONS[function]
+    inputs = dataclasses.replace(hidden, prepared={**hidden.prepared, concept: prepared_for(hidden, concept)})
+    result = run_here(LocalStudent(functions), inputs, tests=[HIDDEN_DIR / f"test_{concept}.py"])
     chosen = []
-    for q in module.judge(prepared, outcomes):
+    for q in result.questions:
         prefixes = tests.get(q.id)
         if prefixes is None:
             continue
@@ -146,27 +142,27 @@ def public_reports(hidden, functions: dict, function: str) -> list:
         base = sc.default or sc.hidden[-1]
         return [checks.check_eightpoint(fn, scene=noisy_pair(base.scene), **kw)]
     if function == "essentialMatrix":
-        p = prep["autograder.tests.essential"]
-        return [checks.check_essentialMatrix(fn, scene=_pair_of(sc.two_view), inputs=p.inputs[:-1], **kw)]
+        p = prep["essential"]
+        return [checks.check_essentialMatrix(fn, scene=_pair_of(sc.two_view), inputs=p.inputs, **kw)]
     if function == "triangulate":
         return [checks.check_triangulate(fn, scene=_pair_of(sc.two_view), **kw),
                 *(checks.check_triangulate(fn, scene=noisy_pair(tc.scene), **kw) for tc in sc.hidden)]
     if function == "findM2":
-        p = prep["autograder.tests.pose"]
+        p = prep["pose"]
         noisy = p.cases[1]
         return [checks.check_findM2(fn, scene=_pair_of(sc.two_view), **kw),
                 checks.check_findM2(fn, scene=noisy_pair(sc.hidden[0].scene), F=noisy.F, right=noisy.right, **kw)]
     if function == "epipolarCorrespondence":
-        return [checks.check_epipolarCorrespondence(fn, cases=prep["autograder.tests.correspondence"].cases, **kw)]
+        return [checks.check_epipolarCorrespondence(fn, cases=prep["correspondence"].cases, **kw)]
     if function == "compute3D_pts":
-        p = prep["autograder.tests.correspondence"]
+        p = prep["correspondence"]
         return [checks.check_compute3D_pts(fn, cases=[p.points_case], **kw)]
     if function == "rodriguesResidual":
-        return [checks.check_rodriguesResidual(fn, inputs=prep["autograder.tests.bundle"].residual_inputs, **kw)]
+        return [checks.check_rodriguesResidual(fn, inputs=prep["bundle"].residual_inputs, **kw)]
     if function == "bundleAdjustment":
         return [checks.check_bundleAdjustment(fn, problems=prepared_for(hidden, "bundle").problems, **kw)]
     if function == "MultiviewReconstruction":
-        p = prep["autograder.tests.multiview"]
+        p = prep["multiview"]
         return [checks.check_MultiviewReconstruction(fn, probes=p.probes, sequence=p.sequence, **kw)]
     raise KeyError(function)
 

@@ -2,7 +2,7 @@
 
 ``build_hidden_inputs(config)`` makes the hidden scenes and every check's prepared inputs and
 reference results.  A batch makes them once and ``save``s them into a folder of the grader's own
-(mode 0700, hidden from the sandbox); each grading process (one ``pytest`` run per submission)
+(mode 0700, hidden from the sandbox); each grading run (one ``pytest`` session per submission)
 ``load``s them instead of making them again.  The cache is the grader's own data, written and read
 by the grader only, never by the sandbox.
 """
@@ -17,37 +17,34 @@ from functools import lru_cache
 from pathlib import Path
 
 from autograder.config import GradingConfig
-from autograder.tests import bundle, correspondence, essential, fundamental, multiview, pose, triangulation
-from autograder.tests.hidden import Scenes, make_scenes
 
-__all__ = ["MODULES", "HiddenInputs", "build_hidden_inputs", "load", "save"]
+from .cases import call_seconds, prepare_all
+from .scenes import Scenes, make_scenes
 
-MODULES = (fundamental, essential, triangulation, pose, correspondence, bundle, multiview)
+__all__ = ["HiddenInputs", "build_hidden_inputs", "load", "save"]
+
 _FILE = "hidden-inputs.pickle"
 
 
 @dataclass(frozen=True, eq=False)
 class HiddenInputs:
-    """The config, the scenes and each module's prepared inputs and reference results (never leave the grader)."""
+    """The config, the scenes and each concept's prepared inputs (``autograder.hidden.cases``), by
+    concept name ("fundamental", "essential", ...): never leave the grader."""
 
     config: GradingConfig
     scenes: Scenes | None
     prepared: dict = field(default_factory=dict)
 
-    def calls(self, module) -> list:
-        """The legacy helper calls of ``module`` on these inputs."""
-        return module.calls(self.prepared[module.__name__], self.config.time_scale)
-
     def call_seconds(self) -> float:
         """The time every check may give student code, added up (for the session's budget)."""
-        return sum(float(c.timeout) for m in MODULES for c in self.calls(m))
+        return call_seconds(self.prepared, self.config.time_scale)
 
 
 @lru_cache(maxsize=4)
 def build_hidden_inputs(config: GradingConfig) -> HiddenInputs:
     """Make (once per config and process) every hidden input and the reference's results on them."""
     scenes = make_scenes(config)
-    return HiddenInputs(config, scenes, {m.__name__: m.prepare(scenes) for m in MODULES})
+    return HiddenInputs(config, scenes, prepare_all(scenes))
 
 
 def save(hidden: HiddenInputs, folder: Path) -> Path:

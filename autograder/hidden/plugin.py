@@ -36,40 +36,40 @@ import pytest
 
 from core.manifest import QUESTIONS, question
 
-__all__ = ["LocalStudent", "Score", "StudentError", "Student"]
+from .feedback import failure, notes, tidy
+
+__all__ = ["HIDDEN_DIR", "CheckFailed", "Local", "config_of", "run_here", "LocalStudent", "Score", "Student", "StudentError"]
 
 _OUTPUT_KEPT = 8000
 _RESTARTS_BUDGETED = 3      # crashes or timeouts after which the session's time is still enough
-_MESSAGE_LIMIT = 300
-_LONG_NUMBER = re.compile(r"-?\d+\.\d{4,}(?:e[+-]?\d+)?")
-_NUMBER_RUN = re.compile(r"(?:-?\d[\d.e+-]*[\s,;]+){6,}-?\d[\d.e+-]*")
-
-
-def tidy(message: str, limit: int = _MESSAGE_LIMIT) -> str:
-    """A message for feedback, shortened, with long numbers and runs of numbers cut (student
-    code sees the hidden inputs and could print them into an exception)."""
-    text = _NUMBER_RUN.sub("[numbers]", str(message))
-    text = _LONG_NUMBER.sub(lambda m: m.group(0)[: m.group(0).index(".") + 3], text)
-    text = " ".join(text.split())
-    return text if len(text) <= limit else text[:limit] + " [...]"
+HIDDEN_DIR = Path(__file__).resolve().parent
+_loaded: dict = {}          # hidden inputs loaded by this process, by (folder, config fingerprint)
 
 
 class StudentError(AssertionError):
     """A call of the student's function that did not return: the test fails with this sentence."""
 
 
-def _sentence(function: str, outcome) -> str:
-    msg = tidy(outcome.message or "")
-    if outcome.status == "missing":
-        return f"{function} is not defined in your notebooks"
-    if outcome.status == "timeout":
-        return f"{function} {msg}" if msg.startswith("took") else f"{function} did not finish in time ({msg})"
-    if outcome.status == "exception":
-        return f"{function} raised {msg}" if msg else f"{function} raised an exception"
-    return f"{function}: {msg}" if msg else f"{function} failed"
+class CheckFailed(AssertionError):
+    """A check that earned nothing: the test fails, its feedback lines are kept as they are."""
+
+    def __init__(self, lines):
+        self.lines = [str(line) for line in lines] or ["the check failed"]
+        super().__init__("\n".join(self.lines))
 
 
-class Student:
+class _Calls:
+    time_scale = 1.0
+
+    def each(self, function: str, inputs, *, seconds: float, args=(), slack: float = 2.0, figure: bool = False):
+        """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k])``, all within
+        ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request."""
+        inputs = [(tuple(a), {}) for a in inputs]
+        budget = float(seconds) * len(inputs) * self.time_scale
+        return self.map(function, inputs, args=args, seconds=budget + slack, budget=budget, figure=figure)
+
+
+class Student(_Calls):
     """The student's code, loaded once in a sandbox session; calls are made one at a time.
 
     ``seconds`` are multiplied by the config's ``time_scale``.
@@ -93,7 +93,7 @@ class Student:
         """The value ``function(*args, **kwargs)`` returned; StudentError (a failed check) otherwise."""
         o = self.outcome(function, *args, seconds=seconds, **kwargs)
         if not o.ok:
-            raise StudentError(_sentence(function, o))
+            raise StudentError(failure(function, o))
         return o.value
 
     def map(self, function, inputs, *, args=(), seconds, budget=None, figure=False):
@@ -101,7 +101,7 @@ class Student:
         return self.session.map(function, inputs, args=args, seconds=seconds, budget=budget, figure=figure)
 
 
-class LocalStudent:
+class LocalStudent(_Calls):
     """Stand-in for a sandbox session that calls Python functions of this process (tests of the
     checks themselves, on chosen functions; no time limits).  Values cross ``core.wire`` as they would."""
 
@@ -137,8 +137,41 @@ class LocalStudent:
     def call(self, function, *args, seconds=None, **kwargs):
         o = self.map(function, [(args, kwargs)])[0]
         if not o.ok:
-            raise StudentError(_sentence(function, o))
+            raise StudentError(failure(function, o))
         return o.value
+
+    def outcome(self, function, *args, seconds=None, **kwargs):
+        return self.map(function, [(args, kwargs)])[0]
+
+
+class Local:
+    """A plugin object that stands in for the sandbox and the hidden inputs of a run (``run_here``):
+    ``student`` (a ``LocalStudent``, or anything with its ``map``, ``each``, ``call``, ``outcome`` and
+    ``defined``) and ``hidden`` (``HiddenInputs``, or None for the run's own); ``result`` is the
+    run's ``SubmissionResult`` once it finished."""
+
+    def __init__(self, student, hidden=None):
+        self.student, self.hidden, self.result = student, hidden, None
+
+    def pytest_sessionfinish(self, session):
+        self.result = collect_result(session.config)
+
+
+def _local(config) -> Local | None:
+    return next((p for p in config.pluginmanager.get_plugins() if isinstance(p, Local)), None)
+
+
+def run_here(student, hidden=None, tests=(HIDDEN_DIR,), args=()):
+    """The ``SubmissionResult`` of the hidden checks (``tests``: files or folders) run in this
+    process on ``student`` (a ``LocalStudent``...), with ``hidden`` inputs: no sandbox, no submission."""
+    local = Local(student, hidden)
+    pytest.main(["-q", "-s", "-p", "no:cacheprovider", "-c", str(HIDDEN_DIR / "pytest.ini"), "--rootdir",
+                 str(HIDDEN_DIR), "--no-header", "-W", "ignore::pytest.PytestAssertRewriteWarning",
+                 "-p", "autograder.hidden.plugin", *[str(t) for t in tests],
+                 *args], plugins=[local])
+    if local.result is None:
+        raise RuntimeError("run_here: the pytest session did not finish")
+    return local.result
 
 
 class Score:
@@ -161,6 +194,15 @@ class Score:
     def record(self, *results) -> None:
         """Report finished ``TestResult`` or ``QuestionResult`` objects instead of a fraction."""
         self.results += list(results)
+
+    def grade(self, fraction: float, lines=(), mistakes=()) -> None:
+        """The check's share of its points and its feedback: ``lines`` (same texts merged), then the
+        catalogue ``mistakes`` named when not full marks.  A share of 0 fails the test."""
+        fraction = float(fraction) if math.isfinite(float(fraction)) else 0.0
+        text = notes(lines, mistakes, passed=fraction >= 1.0)
+        if fraction <= 0.0:
+            raise CheckFailed(text)
+        self.fraction(fraction, *text)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -185,11 +227,19 @@ def pytest_configure(config):
     config._hw4 = {"results": {}, "log": [], "session": None, "started": time.monotonic()}
 
 
-@pytest.fixture(scope="session")
-def grading_config(request):
+def config_of(config):
+    """The ``GradingConfig`` of a pytest run (known at collection: tests may be parametrized by it)."""
+    local = _local(config)
+    if local is not None and getattr(local, "hidden", None) is not None:
+        return local.hidden.config
     from autograder.config import load_config
 
-    return load_config(request.config.getoption("--grading-config"))
+    return load_config(config.getoption("--grading-config"))
+
+
+@pytest.fixture(scope="session")
+def grading_config(request):
+    return config_of(request.config)
 
 
 @pytest.fixture(scope="session")
@@ -197,21 +247,50 @@ def hidden(request, grading_config):
     """The hidden inputs (``autograder.hidden.inputs.HiddenInputs``): from the batch's cache, or made here."""
     from autograder.hidden import inputs
 
+    local = _local(request.config)
+    if local is not None and getattr(local, "hidden", None) is not None:
+        return local.hidden
     cache = request.config.getoption("--hidden-cache")
     if cache:
-        return inputs.load(Path(cache), grading_config)
+        key = (str(Path(cache).resolve()), grading_config.fingerprint())
+        if key not in _loaded:  # a grading worker runs one session after another: load once
+            _loaded.clear()
+            _loaded[key] = inputs.load(Path(cache), grading_config)
+        return _loaded[key]
     return inputs.build_hidden_inputs(grading_config)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """A submission that cannot be read is graded no further: no check runs, the result says why."""
+    path = config.getoption("--submission")
+    if not path or _local(config) is not None:
+        return
+    from autograder.submission import SubmissionError, load_submission
+
+    try:
+        sub = config._hw4["submission"] = load_submission(path)
+    except SubmissionError as exc:
+        config._hw4["failure"] = str(exc)
+    else:
+        if not sub.notebooks:
+            config._hw4["failure"] = ("no notebook of the homework was found (expected files such as "
+                                      "q2_eightpoint.ipynb)")
+    if config._hw4.get("failure"):
+        config.hook.pytest_deselected(items=list(items))
+        items[:] = []
 
 
 @pytest.fixture(scope="session")
 def submission(request):
-    """The parsed submission (``autograder.submission.Submission``)."""
+    """The parsed submission (``autograder.submission.Submission``), read once per run."""
     from autograder.submission import load_submission
 
     path = request.config.getoption("--submission")
     if not path:
         raise pytest.UsageError("--submission: expected the path of a submission to grade, got none")
-    return load_submission(path)
+    if request.config._hw4.get("submission") is None:
+        request.config._hw4["submission"] = load_submission(path)
+    return request.config._hw4["submission"]
 
 
 @pytest.fixture(scope="session")
@@ -229,8 +308,15 @@ def sandbox(request):
 
 
 @pytest.fixture(scope="session")
-def student(request, sandbox, submission, grading_config, hidden):
-    """The student's code in one sandbox session for all the checks (``Student``)."""
+def student(request, grading_config, hidden):
+    """The student's code in one sandbox session for all the checks (``Student``), or the
+    student of a ``Local`` plugin (tests of the checks themselves)."""
+    local = _local(request.config)
+    if local is not None:
+        yield local.student
+        return
+    sandbox = request.getfixturevalue("sandbox")
+    submission = request.getfixturevalue("submission")
     budget = request.config.getoption("--budget") or (
         hidden.call_seconds() + grading_config.load_timeout * (1 + _RESTARTS_BUDGETED) + 30)
     session = sandbox.session(list(submission.units()), load_timeout=grading_config.load_timeout, budget=budget)
@@ -290,7 +376,9 @@ def pytest_runtest_makereport(item, call):
     if item.nodeid in store and call.when == "teardown":
         return
     exc = call.excinfo.value if call.excinfo is not None else None
-    if isinstance(exc, AssertionError):
+    if isinstance(exc, CheckFailed):
+        feedback = "  \n".join(tidy(line) for line in exc.lines)
+    elif isinstance(exc, AssertionError):
         message = str(exc).split("\nassert ")[0].strip() or "the check failed"
         feedback = tidy(message)
     else:
@@ -301,8 +389,13 @@ def pytest_runtest_makereport(item, call):
 
 
 def collect_result(config):
-    """The ``SubmissionResult`` of this run (questions in manifest order, then any other question)."""
+    """The ``SubmissionResult`` of this run (questions in manifest order, then any other question), or
+    a failed one when the submission could not be read."""
     from autograder.results import QuestionResult, SubmissionResult
+
+    if config._hw4.get("failure"):
+        return SubmissionResult.failed(config._hw4["failure"], student_id=config.getoption("--student-id"),
+                                       execution_time=time.monotonic() - config._hw4["started"])
 
     by_q: dict[str, list] = {}
     for qid, tests in config._hw4["results"].values():
@@ -327,8 +420,9 @@ def collect_result(config):
         from autograder.submission import load_submission
 
         path = config.getoption("--submission")
-        if path:
-            notes += [str(n) for n in load_submission(path).notes()]
+        sub = config._hw4.get("submission") or (load_submission(path) if path else None)
+        if sub is not None:
+            notes += [str(n) for n in sub.notes()]
     except Exception:  # noqa: BLE001, S110 - an unreadable submission already failed its checks
         pass
     if session is not None:
@@ -368,10 +462,14 @@ def pytest_sessionfinish(session, exitstatus):
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
-    if not hasattr(config, "_hw4") or not config._hw4["results"]:
+    if not hasattr(config, "_hw4") or not (config._hw4["results"] or config._hw4.get("failure")):
         return
     result = collect_result(config)
     tr = terminalreporter
+    if result.failure:
+        tr.section("hidden checks: not graded")
+        tr.write_line(result.failure)
+        return
     tr.section("hidden checks: points")
     for q in result.questions:
         tr.write_line(f"{q.id:6s} {q.score:7.2f} / {q.max_score:g}")

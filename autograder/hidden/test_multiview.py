@@ -1,13 +1,117 @@
-"""Hidden checks of Q6 (judged by ``autograder/tests/multiview.py`` until ``judging.multiview`` replaces it)."""
+"""Q6 (extra credit): ``MultiviewReconstruction`` and ``plot_3d_keypoint_video`` on hidden car data (judging.multiview).
+
+- A hidden car sequence (three cameras, a few time steps, noisy detections): on the keypoints the
+  reference reconstructs (two confident views or more), the mean distance of the student's
+  points from the true ones must be within 1.5 times the reference's plus 1 cm.
+- Threshold probes: exact detections above ``Thres`` and clearly wrong ones at or below it, built
+  so that using a detection at exactly Thres (``>=``), ignoring the threshold, or leaving out a
+  detection just above it each puts some keypoints off.  Every keypoint must come out right.
+- ``plot_3d_keypoint_video`` must run on a (T, 12, 3) sequence, and its figure (returned, or
+  opened with pyplot) must show at least 90 % of the keypoints (axes may be swapped or flipped).
+"""
 
 from __future__ import annotations
 
+import itertools
+
+import numpy as np
 import pytest
 
-from autograder.tests import multiview
+from autograder.hidden.cases import SECONDS
+from autograder.hidden.feedback import value_of
+from judging import multiview as jm
+from judging.verdict import Malformed, read_array
+
+_PLOT_SHARE = 0.9
+# Plots often show the car with axes swapped or flipped (y up): any signed permutation is fine.
+_AXES = [(perm, signs) for perm in itertools.permutations(range(3))
+         for signs in itertools.product((1.0, -1.0), repeat=3)]
 
 
-@pytest.mark.points(15, question="Q6")
-def test_Q6(legacy_judged, score):
-    """MultiviewReconstruction and plot_3d_keypoint_video on the hidden scenes."""
-    score.record(legacy_judged(multiview)["Q6"])
+@pytest.fixture(scope="session")
+def multiview(hidden):
+    """The prepared inputs (``autograder.hidden.cases.Multiview``)."""
+    return hidden.prepared["multiview"]
+
+
+@pytest.fixture(scope="session")
+def reconstructed(student, multiview) -> dict:
+    """The student's P (12, 3) (or the Malformed) of every step, sequence and probes: one request."""
+    steps = (*multiview.sequence, *multiview.probes)
+    outcomes = student.each("MultiviewReconstruction",
+                            [(s.C[0], s.pts[0], s.C[1], s.pts[1], s.C[2], s.pts[2], s.Thres) for s in steps],
+                            seconds=SECONDS["MultiviewReconstruction"])
+    out = {}
+    for step, o in zip(steps, outcomes):
+        try:
+            out[step] = jm.read_P(value_of("MultiviewReconstruction", o), len(step.P_true))
+        except Malformed as exc:
+            out[step] = exc
+    return out
+
+
+@pytest.mark.points(9, question="Q6", name="3D keypoints of a hidden car sequence")
+def test_3D_keypoints_of_a_car_sequence(multiview, reconstructed, score):
+    right, lines = 0, []
+    for step in multiview.sequence:
+        P = reconstructed[step]
+        if isinstance(P, Malformed):
+            lines.append(f"{step.label}: {P}")
+            continue
+        v = jm.sequence(P, step.P_true, step.judged, step.goal)
+        right += v.passed
+        lines.append(f"{step.label}: {v.measured} m of your keypoints from the true ones (goal {v.goal} m)")
+    score.grade(right / len(multiview.sequence), lines)
+
+
+@pytest.mark.points(4, question="Q6", name="only detections above Thres are used")
+def test_only_detections_above_Thres_are_used(multiview, reconstructed, score):
+    right, lines, mistakes = 0, [], []
+    for step in multiview.probes:
+        P = reconstructed[step]
+        if isinstance(P, Malformed):
+            lines.append(f"{step.label}: {P}")
+            continue
+        v = jm.threshold_probe(P, step.P_true, step.pts[:, :, 2].T, step.Thres, step.goal)
+        right += v.passed
+        mistakes += v.mistakes
+        lines.append(f"{step.label} (Thres = {step.Thres}): {v.measured.split(' within')[0]} keypoints right")
+    score.grade(right / len(multiview.probes), lines, mistakes)
+
+
+def drawn_share(drawn: np.ndarray, video: np.ndarray) -> float:
+    """Share of the sequence's keypoints (T, N, 3) that appear among the drawn 3D points (K, 3),
+    up to a signed permutation of the axes and 1e-6 of the scene's size."""
+    truth = video.reshape(-1, 3)
+    truth = truth[np.all(np.isfinite(truth), axis=1)]
+    drawn = drawn[np.all(np.isfinite(drawn), axis=1)]
+    if len(truth) == 0 or len(drawn) == 0:
+        return 0.0
+    tol = 1e-6 * max(1.0, float(np.abs(truth).max()))
+    order = np.argsort(drawn[:, 0])
+    xs = drawn[order, 0]
+    best = 0.0
+    for perm, signs in _AXES:
+        moved = truth[:, perm] * signs
+        # Sorting by one coordinate lets each keypoint be looked up among nearby candidates only.
+        lo = np.searchsorted(xs, moved[:, 0] - tol)
+        hi = np.searchsorted(xs, moved[:, 0] + tol, side="right")
+        hits = sum(bool(np.any(np.all(np.abs(drawn[order[a:b]] - m) <= tol, axis=1))) for m, a, b in zip(moved, lo, hi))
+        best = max(best, hits / len(truth))
+    return best
+
+
+@pytest.mark.points(2, question="Q6", name="plot_3d_keypoint_video draws a sequence")
+def test_plot_3d_keypoint_video_draws_a_sequence(student, multiview, score):
+    o = student.each("plot_3d_keypoint_video", [(multiview.video,)], seconds=SECONDS["plot_3d_keypoint_video"],
+                     figure=True)[0]
+    try:
+        drawn = value_of("plot_3d_keypoint_video", o)
+    except Malformed as exc:
+        score.grade(0.0, [str(exc)])
+    try:
+        shown = drawn_share(read_array(drawn, (None, 3), "the drawn points"), multiview.video)
+    except Malformed:
+        shown = 0.0
+    score.grade(float(shown >= _PLOT_SHARE),
+                [f"your figure shows {shown:.0%} of the keypoints of the sequence (goal >= {_PLOT_SHARE:.0%})"])

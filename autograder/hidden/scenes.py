@@ -1,4 +1,4 @@
-"""The scenes behind the hidden inputs: made in the grader, never shown to students.
+"""The scenes behind the hidden inputs: made in the grader, never shown to students (``make_scenes``).
 
 Hidden temple scenes come from ``scenes.temple.make_temple_scene`` with seeds derived from the
 instructor's secret (``GradingConfig.seed``), at the sizes and noise levels of the config; the
