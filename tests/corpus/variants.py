@@ -378,3 +378,12 @@ def epipolarCorrespondence(im1, im2, F, x1, y1):
 # in shape and numpy raises (the self-check must point to this cell's line).
 EPIPOLAR_INDEXED_XY = EPIPOLAR_SAD.replace(
     "ref = im1[r0 - h:r0 + h + 1, c0 - h:c0 + h + 1]", "ref = im1[c0 - h:c0 + h + 1, r0 - h:r0 + h + 1]")
+# The polished transposed F with refineF after unscaling (on the pixel F and points).
+EIGHTPOINT_TRANSPOSED_REFINED_AFTER_UNSCALING = eightpoint_cell("f_transposed", refine=True,
+                                                                refine_after_unscaling=True)
+
+# Valid: Hartley's normalisation, refineF on the normalised F and points, then unnormalised.
+EIGHTPOINT_HARTLEY_REFINED = EIGHTPOINT_HARTLEY.replace(
+    "    F = T2.T @ (U @ np.diag([S[0], S[1], 0.0]) @ Vt) @ T1\n",
+    "    F = refineF(U @ np.diag([S[0], S[1], 0.0]) @ Vt, h1[:, :2], h2[:, :2])\n    F = T2.T @ F @ T1\n")
+assert EIGHTPOINT_HARTLEY_REFINED != EIGHTPOINT_HARTLEY
