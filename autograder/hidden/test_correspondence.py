@@ -33,7 +33,7 @@ def pytest_generate_tests(metafunc):
     if "scene_index" in metafunc.fixturenames:
         labels = matching_labels(config_of(metafunc.config))
         metafunc.parametrize("scene_index", [
-            pytest.param(k, id=f"scene{k}", marks=pytest.mark.points(15 / len(labels), question="Q4.1",
+            pytest.param(k, id=f"scene{k + 1}", marks=pytest.mark.points(15 / len(labels), question="Q4.1",
                                                                      name=f"matches on {label}"))
             for k, label in enumerate(labels)])
 
