@@ -255,7 +255,7 @@ def _tree(root: Path, pattern: str, label: str) -> list[tuple[str, Path]]:
 
 def tests_fingerprint(extra_tests=()) -> dict:
     """What the checks are made of: digests of the hidden tests (``autograder/hidden``), of the
-    judging code and thresholds they call (``autograder/tests``, ``judging``) and of an
+    judging code and thresholds they call (``judging``) and of an
     instructor's extra test files or folders.
 
     Returns ``{"digest": all of them, "hidden": ..., "judging": ..., "extra": ... or None,
@@ -263,7 +263,7 @@ def tests_fingerprint(extra_tests=()) -> dict:
     """
     auto = Path(__file__).resolve().parent
     hidden = _tree(auto / "hidden", "*.py", "hidden") + _tree(auto / "hidden", "*.ini", "hidden")
-    judging = _tree(auto / "tests", "*.py", "autograder-tests") + _tree(KIT_ROOT / "judging", "**/*.py", "judging")
+    judging = _tree(KIT_ROOT / "judging", "**/*.py", "judging")
     extra: list[tuple[str, Path]] = []
     for item in extra_tests or ():
         item = Path(item)

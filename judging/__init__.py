@@ -1,7 +1,7 @@
 """One judgment per concept: pure functions (a student's returned values, the ground truth) -> Verdict.
 
 Used by both the public self-checks (starter.checks: public scenes, advice) and the hidden
-tests (autograder.tests: hidden scenes, points).  The two may differ in inputs and in what they
+tests (autograder/hidden: hidden scenes, points).  The two may differ in inputs and in what they
 disclose, never in what they call right.  Layer 3: imports core and starter only.
 
 Modules: ``verdict`` (Verdict, Malformed, the readers of returned values), ``mistakes`` (the
