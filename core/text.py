@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -12,13 +13,20 @@ __all__ = ["fmt", "points", "write_atomic"]
 def fmt(x, digits: int = 3) -> str:
     """A measured figure for a report or feedback: ``digits`` significant digits.
 
-    inf and nan are spelled out ("inf", "nan"); anything that is not a number comes back as
-    ``str(x)``.
+    Small figures come in exponent form (3.09e-04, never a long run of digits that could carry
+    data out of the sandbox); "infinite" and "not finite" are spelled out; anything that is not
+    a number comes back as ``str(x)``.
     """
     try:
         v = float(x)
     except (TypeError, ValueError):
         return str(x)
+    if math.isnan(v):
+        return "not finite"
+    if math.isinf(v):
+        return "infinite"
+    if v != 0 and abs(v) < 1e-2:
+        return f"{v:.{max(digits - 1, 0)}e}"
     return f"{v:.{digits}g}"
 
 

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.text import fmt  # noqa: F401 - judging's figures are the kit's (re-exported for its modules)
+
 from .mistakes import Mistake
 
 __all__ = ["Malformed", "Verdict", "fmt", "log_score", "read_array", "read_number", "read_parts", "share_score"]
@@ -76,22 +78,6 @@ class Verdict:
     @property
     def codes(self) -> tuple[str, ...]:
         return tuple(m.code for m in self.mistakes)
-
-
-def fmt(x, digits: int = 3) -> str:
-    """A figure for a sentence: ``digits`` significant digits (small ones in exponent form);
-    'infinite' and 'not finite' spelled out."""
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return str(x)
-    if math.isnan(v):
-        return "not finite"
-    if math.isinf(v):
-        return "infinite"
-    if v != 0 and abs(v) < 1e-2:
-        return f"{v:.{max(digits - 1, 0)}e}"   # 3.09e-04, never a long run of digits like 0.000309
-    return f"{v:.{digits}g}"
 
 
 def _kind(value) -> str:

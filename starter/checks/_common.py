@@ -2,16 +2,11 @@
 
 from __future__ import annotations
 
-from judging.verdict import Malformed, fmt
+from judging.verdict import Malformed
 
 from .report import NOT_IMPLEMENTED, CheckReport, Outcome
 
-__all__ = ["fig", "finish", "read_or_report", "run_failed", "stop_if_not_implemented"]
-
-
-def fig(x, digits: int = 3) -> str:
-    """A number for a report line (judging.verdict.fmt)."""
-    return fmt(x, digits)
+__all__ = ["finish", "read_or_report", "run_failed", "stop_if_not_implemented"]
 
 
 def read_or_report(report: CheckReport, reader, value, *args, label: str):
