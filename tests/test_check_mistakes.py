@@ -248,17 +248,7 @@ VALID_PROGRAMS = [n for n in corpus.CASES if n.endswith("full_marks") and corpus
 
 def program(name: str) -> dict:
     """The homework functions a corpus submission defines, its notebooks' statements executed in order."""
-    from core.notebook import definitions, python_cells
-    from core.manifest import NOTEBOOKS
-
-    case = corpus.CASES[name]
-    nbs = corpus.notebooks(case.base)
-    case.mutate(nbs, {"kit": str(corpus.KIT_ROOT), "out": "/nonexistent", "name": name, "trap": "/nonexistent"})
-    namespace: dict = {"__name__": f"corpus_{name}"}
-    for stem in NOTEBOOKS:
-        cells, _ = python_cells(dict(nbs[stem]))
-        for d in definitions(cells, homework=CHECKS):
-            exec(compile(d.source, f"<{name}/{stem}>", "exec"), namespace)  # noqa: S102 - the kit's own corpus
+    namespace = corpus.program_namespace(name, CHECKS)
     return {f: namespace[f] for f in CHECKS}
 
 

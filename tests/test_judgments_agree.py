@@ -25,7 +25,6 @@ import corpus
 import numpy as np
 import pytest
 
-from core.manifest import NOTEBOOKS
 from judging.mistakes import KNOWN_MISTAKES
 
 pytestmark = pytest.mark.slow
@@ -54,19 +53,7 @@ _NAME_TO_CODE = {name: code for code, (name, _) in KNOWN_MISTAKES.items()}
 
 def program(name: str) -> dict:
     """The functions a corpus submission defines, executed here as the grader keeps its statements."""
-    from core.notebook import definitions, python_cells
-
-    case = corpus.CASES[name]
-    nbs = corpus.notebooks(case.base)
-    case.mutate(nbs, {"kit": str(corpus.KIT_ROOT), "out": "/nonexistent", "name": name, "trap": "/nonexistent"})
-    namespace: dict = {"__name__": f"corpus_{name}"}
-    for stem in NOTEBOOKS:
-        cells, _ = python_cells(dict(nbs[stem]))
-        for d in definitions(cells, homework=FUNCTIONS):
-            try:
-                exec(compile(d.source, f"<{name}/{stem}>", "exec"), namespace)  # noqa: S102 - the kit's own corpus
-            except Exception:  # noqa: BLE001 - a failing statement costs nothing, as in the grader
-                pass
+    namespace = corpus.program_namespace(name, FUNCTIONS)
     return {f: namespace[f] for f in (*FUNCTIONS, "plot_3d_keypoint_video") if callable(namespace.get(f))}
 
 

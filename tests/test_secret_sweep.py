@@ -68,21 +68,7 @@ _HOMEWORK = {f: None for f in ("eightpoint", "essentialMatrix", "triangulate", "
 @functools.lru_cache(maxsize=None)
 def _namespace(name: str) -> dict:
     """The namespace a corpus program's kept statements make (as the grader keeps them)."""
-    from core.manifest import NOTEBOOKS
-    from core.notebook import definitions, python_cells
-
-    case = corpus.CASES[name]
-    nbs = corpus.notebooks(case.base)
-    case.mutate(nbs, {"kit": str(corpus.KIT_ROOT), "out": "/nonexistent", "name": name, "trap": "/nonexistent"})
-    namespace: dict = {"__name__": f"corpus_{name}"}
-    for stem in NOTEBOOKS:
-        cells, _ = python_cells(dict(nbs[stem]))
-        for d in definitions(cells, homework=_HOMEWORK):
-            try:
-                exec(compile(d.source, f"<{name}/{stem}>", "exec"), namespace)  # noqa: S102 - the kit's own corpus
-            except Exception:  # noqa: BLE001 - a failing statement costs nothing, as in the grader
-                pass
-    return namespace
+    return corpus.program_namespace(name, _HOMEWORK)
 
 
 def _from_program(name: str, function: str = "eightpoint"):

@@ -23,7 +23,7 @@ from core.manifest import NOTEBOOKS
 
 from . import hostile, variants
 
-__all__ = ["CASES", "KIT_ROOT", "Case", "build", "notebooks", "trap_path"]
+__all__ = ["CASES", "KIT_ROOT", "Case", "build", "notebooks", "program_namespace", "trap_path"]
 
 KIT_ROOT = Path(__file__).resolve().parents[2]
 ALL_AUTOGRADED = frozenset({"Q2", "Q3.1", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6"})
@@ -231,3 +231,28 @@ def build(name: str, folder: str | Path, *, out: str | Path = "/nonexistent-grad
     if case.post is not None:
         case.post(target)
     return target
+
+
+def program_namespace(name: str, homework) -> dict:
+    """The namespace a corpus submission's kept statements make, executed here in the kit's tests.
+
+    The statements are the ones the grader keeps (``core.notebook.definitions``), run in notebook
+    order; one that fails costs nothing, as in the grader.  ``homework``: the function names that
+    count as the homework's.  Only the kit's own tests do this: the grader runs submissions in
+    its sandbox, never in its own process.
+    """
+    from core.manifest import NOTEBOOKS
+    from core.notebook import definitions, python_cells
+
+    case = CASES[name]
+    nbs = notebooks(case.base)
+    case.mutate(nbs, {"kit": str(KIT_ROOT), "out": "/nonexistent", "name": name, "trap": "/nonexistent"})
+    namespace: dict = {"__name__": f"corpus_{name}"}
+    for stem in NOTEBOOKS:
+        cells, _ = python_cells(dict(nbs[stem]))
+        for d in definitions(cells, homework=homework):
+            try:
+                exec(compile(d.source, f"<{name}/{stem}>", "exec"), namespace)  # noqa: S102 - the kit's own corpus
+            except Exception:  # noqa: BLE001 - a failing statement costs nothing, as in the grader
+                pass
+    return namespace
