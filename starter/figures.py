@@ -443,7 +443,7 @@ def crowded_labels(fig, pad: float = 2.0) -> list[tuple[object, bool, object, bo
     return pairs
 
 
-def _thin_crowded_ticks(fig, rounds: int = 8, step: float = 6.0) -> None:
+def _thin_crowded_ticks(fig, rounds: int = 16, step: float = 4.0) -> None:
     """Take ticks away from axes whose labels touch, and move titles off the labels they touch.
 
     A foreshortened axis (one seen nearly end-on) gets its tick labels close together.  Each
@@ -466,7 +466,7 @@ def _thin_crowded_ticks(fig, rounds: int = 8, step: float = 6.0) -> None:
                 # the later axis' title moves out; once it cannot, the other one moves in
                 if id(axis_b) not in stuck:
                     to_push[id(axis_b)] = axis_b
-                elif axis_a.labelpad > -2 * step:
+                elif axis_a.labelpad > -4 * step:
                     axis_a.labelpad -= step
                     pulled = True
             elif title_a or title_b:
