@@ -11,9 +11,10 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from judging.hints import numpy2_hint
 from judging.verdict import Malformed
 
-__all__ = ["collapse", "exception_sentence", "failure", "mistake_note", "notes", "tidy", "value_of"]
+__all__ = ["called_as", "collapse", "exception_sentence", "failure", "kind", "mistake_note", "notes", "tidy", "value_of"]
 
 _MESSAGE_LIMIT = 300
 _FIRST_LINE_LIMIT = 80
@@ -51,7 +52,9 @@ def failure(function: str, outcome) -> str:
     if status == "missing":
         return f"{function} is not defined in your notebooks"
     if status == "exception":
-        return f"{function} raised {exception_sentence(msg)}" if msg else f"{function} raised an exception"
+        if not msg:
+            return f"{function} raised an exception"
+        return f"{function} raised {exception_sentence(msg)}" + (f". {h}" if (h := numpy2_hint(msg)) else "")
     msg = tidy(msg)
     if status == "timeout":
         return f"{function} {msg}" if msg.startswith("took") else f"{function} did not finish in time ({msg})"
@@ -60,6 +63,31 @@ def failure(function: str, outcome) -> str:
     if status == "crashed" and not msg:
         return f"the process running {function} ended abruptly"
     return f"{function}: {msg}" if msg else f"{function} failed"
+
+
+def kind(value) -> str:
+    """What sort of argument ``value`` is, never its values: "a 3x3 float64 array", "an int", ..."""
+    if hasattr(value, "shape") and hasattr(value, "dtype"):
+        return f"a {'x'.join(str(n) for n in value.shape) or 'scalar'} {value.dtype} array"
+    if isinstance(value, bool):
+        return "a bool"
+    if isinstance(value, int):
+        return "an int"
+    if isinstance(value, float):
+        return "a float"
+    if isinstance(value, str):
+        return "a str"
+    if isinstance(value, dict):
+        return "a dict with " + (", ".join(str(k) for k in list(value)[:6]) or "no keys")
+    if isinstance(value, (tuple, list)):
+        return f"a {type(value).__name__} of {len(value)}"
+    return f"a {type(value).__name__}"
+
+
+def called_as(function: str, names: Sequence[str], args: Sequence, kwargs: dict | None = None) -> str:
+    """'called as f(F: a 3x3 float64 array, x1: an int, ...)': the call's names and argument kinds."""
+    parts = [f"{n}: {kind(a)}" for n, a in zip(names, args)] + [f"{k}={kind(v)}" for k, v in (kwargs or {}).items()]
+    return f"called as {function}({', '.join(parts)})"
 
 
 def value_of(function: str, outcome):

@@ -61,12 +61,15 @@ class CheckFailed(AssertionError):
 class _Calls:
     time_scale = 1.0
 
-    def each(self, function: str, inputs, *, seconds: float, args=(), slack: float = 2.0, figure: bool = False):
-        """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k])``, all within
-        ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request."""
-        inputs = [(tuple(a), {}) for a in inputs]
+    def each(self, function: str, inputs, *, seconds: float, args=(), slack: float = 2.0, figure: bool = False,
+             swap=None, kwargs=None):
+        """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k], **kwargs)``, all
+        within ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request;
+        ``swap``: globals replaced for this request only (``{"refineF": "identity"}``, see the child)."""
+        inputs = [(tuple(a), dict(kwargs or {})) for a in inputs]
         budget = float(seconds) * len(inputs) * self.time_scale
-        return self.map(function, inputs, args=args, seconds=budget + slack, budget=budget, figure=figure)
+        return self.map(function, inputs, args=args, seconds=budget + slack, budget=budget, figure=figure,
+                        **({"swap": swap} if swap else {}))
 
 
 class Student(_Calls):
@@ -96,9 +99,10 @@ class Student(_Calls):
             raise StudentError(failure(function, o))
         return o.value
 
-    def map(self, function, inputs, *, args=(), seconds, budget=None, figure=False):
+    def map(self, function, inputs, *, args=(), seconds, budget=None, figure=False, swap=None):
         """One ``CallOutcome`` per ``(args, kwargs)`` of ``inputs`` (see ``Session.map``); times are not scaled."""
-        return self.session.map(function, inputs, args=args, seconds=seconds, budget=budget, figure=figure)
+        return self.session.map(function, inputs, args=args, seconds=seconds, budget=budget, figure=figure,
+                                swap=swap)
 
 
 class LocalStudent(_Calls):
@@ -110,14 +114,23 @@ class LocalStudent(_Calls):
         self.defined = tuple(sorted(self.functions))
         self.loaded_once, self.load_failure = True, None
 
-    def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False):
+    def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False, swap=None):
+        fn = self.functions.get(function)
+        from autograder.sandbox.child import _swap_in, _swap_out
+
+        swapped, saved = _swap_in(fn, swap) if fn is not None else (None, {})
+        try:
+            return self._map(fn, function, inputs, args, figure)
+        finally:
+            _swap_out(swapped, saved)
+
+    def _map(self, fn, function, inputs, args, figure):
         import numpy as np
 
         from autograder.sandbox import CallOutcome
         from autograder.sandbox.child import _copy, _figures_points, _fignums
         from core import wire
 
-        fn = self.functions.get(function)
         if fn is None:
             return [CallOutcome("missing", message=f"{function} is not defined")] * len(inputs)
         out = []
@@ -323,6 +336,32 @@ def student(request, grading_config, hidden):
     request.config._hw4["session"] = session
     yield Student(session, grading_config.time_scale)
     session.close()
+
+
+@pytest.fixture(scope="session")
+def signatures(request):
+    """``signatures(name)``: the parameters of the student's function ``name`` as written
+    (``autograder.submission_layout.Signature``), or None when unknown; lets a check call another
+    year's signature as that year's course did."""
+    from autograder.submission_layout import Signature
+
+    local = _local(request.config)
+    if local is not None:
+        import inspect
+
+        functions = getattr(local.student, "functions", {})
+
+        def of_local(name):
+            try:
+                ps = list(inspect.signature(functions[name]).parameters.values())
+            except (KeyError, TypeError, ValueError):
+                return None
+            pos = tuple(p.name for p in ps if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD))
+            defaults = sum(p.default is not p.empty for p in ps if p.name in pos)
+            return Signature(pos, defaults, kwonly=tuple(p.name for p in ps if p.kind == p.KEYWORD_ONLY))
+        return of_local
+    sub = request.getfixturevalue("submission")
+    return sub.signature
 
 
 @pytest.fixture

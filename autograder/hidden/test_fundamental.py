@@ -4,7 +4,9 @@ F is defined up to scale and sign, and several answers are right (refineF or not
 1/M scaling or Hartley's normalisation), so no F is compared entry by entry.  Instead the RMS
 symmetric distance of *true* matches to the student's epipolar lines must stay below a goal set
 from the valid variants; F must have rank 2; noise-free matches must give an exact F (which also
-lets the catalogue name what went wrong); the data files' uint16 points must give the F of the
+lets the catalogue name what went wrong), also with refineF switched off inside the sandbox (every
+global of eightpoint bound to refineF returns its F unchanged for that one call), so that an F
+refineF polished into a near miss (a transposed design matrix) is seen as written; the data files' uint16 points must give the F of the
 same points as float.  Rank 2 and uint16 count only where F fits the scene: a zero or constant
 matrix earns nothing.
 """
@@ -57,8 +59,22 @@ def eightpoint_exact(fundamental, eightpoint_F):
                                                            fundamental.exact.M)
 
 
+@pytest.fixture(scope="session")
+def eightpoint_exact_off(student, fundamental):
+    """judging.fundamental.exact_fit of the noise-free matches' F with refineF switched off, or the Malformed."""
+    c = fundamental.exact
+    o = student.each("eightpoint", [(c.pts1, c.pts2, c.M)], seconds=SECONDS["eightpoint"],
+                     slack=5 * student.time_scale + 2, swap={"refineF": "identity"})[0]
+    try:
+        F = jf.read_F(value_of("eightpoint", o))
+    except Malformed as exc:
+        return exc
+    return jf.exact_fit(F, c.eval1, c.eval2, c.M)
+
+
 @pytest.mark.points(5, question="Q2", name="F fits the true matches of every scene")
-def test_F_fits_the_true_matches(fundamental, eightpoint_F, eightpoint_fits, eightpoint_exact, score):
+def test_F_fits_the_true_matches(fundamental, eightpoint_F, eightpoint_fits, eightpoint_exact, eightpoint_exact_off,
+                                 score):
     lines, mistakes = [], []
     for case in fundamental.cases:
         v = eightpoint_fits.get(case)
@@ -68,6 +84,8 @@ def test_F_fits_the_true_matches(fundamental, eightpoint_F, eightpoint_fits, eig
         mistakes += v.mistakes
         lines.append(f"{case.label}: {v.sentence}{'' if v.passed else ': too far'}")
     exact = [] if isinstance(eightpoint_exact, Malformed) else list(eightpoint_exact.mistakes)
+    if not exact and not isinstance(eightpoint_exact_off, Malformed):
+        exact = list(eightpoint_exact_off.mistakes)
     right = sum(v.passed for v in eightpoint_fits.values())
     score.grade(right / len(fundamental.cases), lines, exact or mistakes)
 
@@ -90,10 +108,15 @@ def test_F_has_rank_2(fundamental, eightpoint_F, eightpoint_fits, score):
 
 
 @pytest.mark.points(2, question="Q2", name="noise-free matches give an exact F")
-def test_noise_free_matches_give_an_exact_F(eightpoint_exact, score):
+def test_noise_free_matches_give_an_exact_F(eightpoint_exact, eightpoint_exact_off, score):
     if isinstance(eightpoint_exact, Malformed):
         score.grade(0.0, [str(eightpoint_exact)])
-    score.grade(float(eightpoint_exact.passed), [eightpoint_exact.sentence], eightpoint_exact.mistakes)
+    off = eightpoint_exact_off
+    if isinstance(off, Malformed):
+        score.grade(0.0, [eightpoint_exact.sentence, f"with refineF switched off: {off}"])
+    lines = [eightpoint_exact.sentence, f"with refineF switched off: {off.sentence}"]
+    mistakes = eightpoint_exact.mistakes or off.mistakes
+    score.grade(float(eightpoint_exact.passed and off.passed), lines, mistakes)
 
 
 @pytest.mark.points(1, question="Q2", name="the data files' uint16 points work as well as float ones")

@@ -4,6 +4,9 @@ E fixes camera 2 up to the four candidates of ``camera2`` and the scale of t, so
 with the right candidate by rotation angle and direction of t only.  Inputs: an exact scene with
 K1 != K2 and its true F, and hidden scenes with the F the reference estimates from their noisy
 matches.  C2 must be K2 M2, and w the points triangulated with it.
+
+Another year's ``findM2(F, pts1, pts2, intrinsics, filename=...)`` (2022-2024: intrinsics a dict
+{'K1', 'K2'}) is recognised by its parameters and called that way; the feedback says how.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ import numpy as np
 import pytest
 
 from autograder.hidden.cases import M1, SECONDS
-from autograder.hidden.feedback import value_of
+from autograder.hidden.feedback import called_as, value_of
 from judging import pose as jp
 from judging.verdict import Malformed
 
@@ -23,19 +26,38 @@ def pose(hidden):
     return hidden.prepared["pose"]
 
 
+def intrinsics_style(signature) -> bool:
+    """True for another year's findM2(F, pts1, pts2, intrinsics, filename=...) (K1 and K2 in one dict)."""
+    if signature is None or signature.varargs or "K1" in signature.positional:
+        return False
+    pos = signature.positional
+    return len(pos) >= 4 and ("intrinsic" in pos[3].lower() or len(signature.required) == 4)
+
+
+def findM2_args(case, signature) -> tuple[tuple, tuple[str, ...]]:
+    """(arguments, their names) of findM2 for ``case`` in the convention ``signature`` was written for."""
+    if intrinsics_style(signature):
+        args = (case.F, case.pts1, case.pts2, {"K1": case.K1, "K2": case.K2})
+        if len(signature.required) >= 5:
+            args += ("q3_3.npz",)
+        return args, signature.positional[:len(args)]
+    return (case.F, case.pts1, case.pts2, case.K1, case.K2), ("F", "pts1", "pts2", "K1", "K2")
+
+
 @pytest.fixture(scope="session")
-def findM2_verdicts(student, pose) -> list:
+def findM2_verdicts(student, pose, signatures) -> list:
     """Per case: (right_camera verdict, outputs verdict), or the Malformed: one request, judged once."""
     from solutions import triangulate
 
-    outcomes = student.each("findM2", [(c.F, c.pts1, c.pts2, c.K1, c.K2) for c in pose.cases],
-                            seconds=SECONDS["findM2"])
+    sig = signatures("findM2")
+    calls = [findM2_args(c, sig) for c in pose.cases]
+    outcomes = student.each("findM2", [a for a, _ in calls], seconds=SECONDS["findM2"])
     out = []
-    for case, o in zip(pose.cases, outcomes):
+    for case, o, (args, names) in zip(pose.cases, outcomes, calls):
         try:
             M2, C2, w = jp.read_findM2(value_of("findM2", o), len(case.pts1))
         except Malformed as exc:
-            out.append(exc)
+            out.append(Malformed(f"{exc}; {called_as('findM2', names, args)}"))
             continue
         linear_err = np.inf
         if np.all(np.isfinite(M2)):
@@ -51,9 +73,11 @@ def _mistakes(verdicts) -> list:
 
 
 @pytest.mark.points(8, question="Q3.3", name="M2 is the camera that puts the points in front of both cameras")
-def test_M2_is_the_right_camera(pose, findM2_verdicts, score):
+def test_M2_is_the_right_camera(pose, findM2_verdicts, signatures, score):
     lines = [f"{c.label}: {v if isinstance(v, Malformed) else v[0].sentence}"
              for c, v in zip(pose.cases, findM2_verdicts)]
+    if intrinsics_style(signatures("findM2")):
+        lines.insert(0, "findM2 was called as its parameters ask: findM2(F, pts1, pts2, intrinsics={'K1', 'K2'}, ...)")
     right = sum(not isinstance(v, Malformed) and v[0].passed for v in findM2_verdicts)
     score.grade(right / len(pose.cases), lines, _mistakes(findM2_verdicts))
 

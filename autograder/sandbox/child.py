@@ -10,13 +10,15 @@ The protocol is a session (the grader's side is ``autograder/sandbox/session.py`
   ``{"units": [{origin, line, source, future}], "load_timeout", "sys_path", "max_result_bytes",
   "max_message"}``: top-level code of the student's notebooks, executed in order in one fresh
   module namespace named ``__main__``.  Every later line is a call:
-  ``{"id", "function", "args", "inputs", "seconds", "budget", "figure", "clock"}``: call ``function`` once
+  ``{"id", "function", "args", "inputs", "seconds", "budget", "figure", "clock", "swap"}``: call ``function`` once
   per entry of ``inputs`` (``{"args", "kwargs"}``), each time on fresh copies of ``args`` followed
   by the entry's own arguments (all in the wire format of ``core/wire.py``); stop starting new
   inputs after ``budget`` seconds and stop the call itself after ``seconds`` (wall-clock seconds,
   or with ``clock`` "cpu" CPU seconds of this process: ITIMER_PROF and ``time.process_time``; the
   grader kills a call that waits instead of computing).  With ``figure``,
   what is reported for an input is the (K, 3) points its 3D figures show, not the returned value.
+  With ``swap`` ``{"refineF": "identity"}``, for the duration of the call every global of the
+  function named refineF, or bound to the kit's ``starter.epipolar.refineF``, returns its F unchanged.
 - the result pipe (file descriptor N) receives one JSON record per line:
   ``{"event": "loaded", "errors": [{origin, message}], "defined": [names]}``; then per call
   ``{"event": "start", "id"}``, ``{"event": "missing", "id", "message"}`` when the function is not
@@ -248,6 +250,27 @@ def _fignums():
         return set()
 
 
+def _identity_refineF(F, *args, **kwargs):
+    return F
+
+
+def _swap_in(fn, swap):
+    """Apply a request's ``swap`` to ``fn.__globals__``; returns (globals, {name: old value}) to restore."""
+    g = getattr(fn, "__globals__", None)
+    if not isinstance(g, dict) or (swap or {}).get("refineF") != "identity":
+        return None, {}
+    kit = getattr(sys.modules.get("starter.epipolar"), "refineF", None)
+    saved = {k: v for k, v in list(g.items()) if k == "refineF" or (kit is not None and v is kit)}
+    for k in saved:
+        g[k] = _identity_refineF
+    return g, saved
+
+
+def _swap_out(g, saved):
+    for k, v in saved.items():
+        g[k] = v
+
+
 def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     """Run one request: ``fn`` on each input within the request's time limits, one record per input."""
     rid = request["id"]
@@ -262,6 +285,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     over = f"used more than {seconds:g} s of CPU time" if clock == "cpu" else f"took more than {seconds:g} s"
     start = now()
     timed_out = False
+    swapped, saved = _swap_in(fn, request.get("swap"))
     _arm(seconds, clock)
     try:
         for index, item in enumerate(inputs):
@@ -307,6 +331,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
         pass  # fired between inputs: the remaining ones are reported as skipped by the grader
     finally:
         _disarm()
+        _swap_out(swapped, saved)
     plt = sys.modules.get("matplotlib.pyplot")
     if plt is not None:
         try:

@@ -387,3 +387,54 @@ EIGHTPOINT_HARTLEY_REFINED = EIGHTPOINT_HARTLEY.replace(
     "    F = T2.T @ (U @ np.diag([S[0], S[1], 0.0]) @ Vt) @ T1\n",
     "    F = refineF(U @ np.diag([S[0], S[1], 0.0]) @ Vt, h1[:, :2], h2[:, :2])\n    F = T2.T @ F @ T1\n")
 assert EIGHTPOINT_HARTLEY_REFINED != EIGHTPOINT_HARTLEY
+
+# --------------------------------------------------------------------------- call conventions (issue 9)
+# Matchers written for the course's call (Python int coordinates, float images in [0, 1]):
+# one slices its windows with the coordinates as given (a float coordinate raises TypeError),
+# one subtracts the windows in the images' own dtype (uint8 wraps around; floats are fine).
+EPIPOLAR_SLICES_WITH_COORDINATES = EPIPOLAR_SAD.replace(
+    "    r0, c0 = min(max(y1, h), H - 1 - h), min(max(x1, h), W - 1 - h)\n", "    r0, c0 = y1, x1\n")
+assert EPIPOLAR_SLICES_WITH_COORDINATES != EPIPOLAR_SAD
+EPIPOLAR_UINT8_DIFFERENCES = EPIPOLAR_SAD.replace(
+    "    im1 = np.asarray(im1, dtype=float)\n    im2 = np.asarray(im2, dtype=float)\n",
+    "    x1, y1 = int(round(x1)), int(round(y1))\n")
+assert EPIPOLAR_UINT8_DIFFERENCES != EPIPOLAR_SAD
+
+# Another year's findM2 (2022-2024): K1 and K2 in one dict, a file name to save the result into.
+FINDM2_INTRINSICS = '''\
+import numpy as np
+from starter.pose import camera2
+
+
+def findM2(F, pts1, pts2, intrinsics, filename="q3_3.npz"):
+    """The candidate of camera2 with the most points in front of both cameras; intrinsics {'K1', 'K2'}."""
+    K1, K2 = intrinsics["K1"], intrinsics["K2"]
+    E = K2.T @ F @ K1
+    C1 = K1 @ np.hstack([np.eye(3), np.zeros((3, 1))])
+    best = None
+    for k in range(4):
+        M2 = camera2(E)[:, :, k]
+        C2 = K2 @ M2
+        w, err = triangulate(C1, pts1, C2, pts2)
+        front = np.sum((w[:, 2] > 0) & ((w @ M2[:, :3].T + M2[:, 3])[:, 2] > 0))
+        if best is None or front > best[0]:
+            best = (front, M2, C2, w)
+    return best[1], best[2], best[3]
+'''
+# The same signature, but indexing the intrinsics as a list (fails on the course's dict).
+FINDM2_INTRINSICS_BROKEN = FINDM2_INTRINSICS.replace('K1, K2 = intrinsics["K1"], intrinsics["K2"]',
+                                                     "K1, K2 = intrinsics[0], intrinsics[1]")
+
+# Another year's compute3D_pts (2022-2024): five arguments, the cameras from the student's findM2.
+COMPUTE3D_FIVE_ARGUMENTS = '''\
+import numpy as np
+
+
+def compute3D_pts(temple_pts1, intrinsics, F, im1, im2):
+    """Match templeCoords along the epipolar lines, find M2 from the matches, triangulate; returns P."""
+    K1, K2 = intrinsics["K1"], intrinsics["K2"]
+    pts1 = np.asarray(temple_pts1)
+    pts2 = np.array([epipolarCorrespondence(im1, im2, F, int(x), int(y)) for x, y in pts1], dtype=float)
+    M2, C2, P = findM2(F, pts1.astype(float), pts2, K1, K2)
+    return P
+'''

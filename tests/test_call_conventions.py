@@ -1,0 +1,197 @@
+"""Calls as the course makes them, and judgments refineF cannot fool (issue 9).
+
+- Q2 is judged also with refineF switched off inside the sandbox: a polished transposed F (design
+  matrix of F^T, then refineF, then unscale) loses the exact-F check, a valid refined one keeps it.
+- Q4.1 calls the matcher as the course does (Python int pixels, float images in [0, 1]) and, when
+  that is not worth full marks, as earlier kits did (float coordinates, uint8 images): a matcher
+  that slices with its coordinates and one that subtracts uint8 windows both get full marks.
+- Another year's findM2(F, pts1, pts2, intrinsics, filename=...) is recognised and called that way.
+- The feedback of a failing call says how it was called (argument kinds, never values).
+
+In-process runs (``run_here`` on ``LocalStudent``) for speed, and one batch through the sandbox
+with the canary on for the whole path (protocol, submission reading, feedback).
+"""
+
+from __future__ import annotations
+
+import json
+
+import corpus
+import pytest
+from corpus import variants
+
+from autograder.batch import grade_batch
+from autograder.config import quick_config
+from autograder.hidden.inputs import build_hidden_inputs
+from autograder.hidden.plugin import LocalStudent, run_here
+from autograder.sandbox import ResourceLimits
+
+LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
+
+
+@pytest.fixture(scope="module")
+def config():
+    return quick_config()
+
+
+@pytest.fixture(scope="module")
+def hidden(config):
+    return build_hidden_inputs(config)
+
+
+def _reference() -> dict:
+    import solutions
+
+    return {name: getattr(solutions, name) for name in solutions.__all__}
+
+
+def _defined(source: str, name: str):
+    import solutions
+    from starter.epipolar import refineF
+
+    namespace = {"refineF": refineF, "triangulate": solutions.triangulate}
+    exec(compile(source, f"<{name}>", "exec"), namespace)  # noqa: S102 - the corpus's own cell
+    return namespace[name]
+
+
+def _questions(hidden, **replaced) -> dict:
+    result = run_here(LocalStudent(dict(_reference(), **replaced)), hidden)
+    return {q.id: q for q in result.questions}
+
+
+def _test(q, words):
+    return next(t for t in q.tests if words in t.name)
+
+
+# ------------------------------------------------------------------------------------- in-process
+
+
+def test_polished_transposed_F_loses_the_exact_F_check(hidden):
+    q2 = _questions(hidden, eightpoint=_defined(variants.EIGHTPOINT_TRANSPOSED_REFINED, "eightpoint"))["Q2"]
+    exact = _test(q2, "exact F")
+    assert exact.score == 0, exact.feedback
+    assert "refineF switched off" in exact.feedback
+    assert q2.score < q2.max_score
+
+
+@pytest.mark.parametrize("cell", ["EIGHTPOINT_REFINED_AFTER_UNSCALING", "EIGHTPOINT_EIGH_REFINED",
+                                  "EIGHTPOINT_HARTLEY_REFINED"])
+def test_valid_refined_eightpoints_keep_full_Q2(hidden, cell):
+    q2 = _questions(hidden, eightpoint=_defined(getattr(variants, cell), "eightpoint"))["Q2"]
+    assert q2.score == q2.max_score, [t.feedback for t in q2.tests]
+
+
+def test_the_refineF_swap_is_undone_after_the_call(hidden):
+    from starter.epipolar import refineF
+
+    fn = _defined(variants.EIGHTPOINT_TRANSPOSED_REFINED, "eightpoint")
+    _questions(hidden, eightpoint=fn)
+    assert fn.__globals__["refineF"] is refineF
+
+
+@pytest.mark.parametrize("cell", ["EPIPOLAR_SLICES_WITH_COORDINATES", "EPIPOLAR_UINT8_DIFFERENCES"])
+def test_matchers_correct_on_the_course_inputs_get_full_Q41(hidden, cell):
+    q41 = _questions(hidden, epipolarCorrespondence=_defined(getattr(variants, cell), "epipolarCorrespondence"))["Q4.1"]
+    assert q41.score == q41.max_score, [t.feedback for t in q41.tests]
+
+
+def test_the_course_call_is_tried_first_and_named(hidden):
+    q41 = _questions(hidden)["Q4.1"]
+    assert all("integer pixel coordinates" in t.feedback for t in q41.tests), [t.feedback for t in q41.tests]
+    sliced = _questions(hidden, epipolarCorrespondence=_defined(variants.EPIPOLAR_UINT8_DIFFERENCES,
+                                                               "epipolarCorrespondence"))["Q4.1"]
+    assert all("integer pixel coordinates" in t.feedback for t in sliced.tests)
+
+
+def test_another_years_findM2_signature_gets_full_Q33(hidden):
+    q33 = _questions(hidden, findM2=_defined(variants.FINDM2_INTRINSICS, "findM2"))["Q3.3"]
+    assert q33.score == q33.max_score, [t.feedback for t in q33.tests]
+    assert "intrinsics" in q33.tests[0].feedback
+
+
+def test_a_failing_call_says_how_it_was_called(hidden):
+    q33 = _questions(hidden, findM2=_defined(variants.FINDM2_INTRINSICS_BROKEN, "findM2"))["Q3.3"]
+    assert q33.score == 0
+    text = "\n".join(t.feedback for t in q33.tests)
+    assert "called as findM2(F: a 3x3 float64 array" in text and "intrinsics: a dict with K1, K2" in text, text
+
+
+def test_numpy2_removals_get_a_hint():
+    from autograder.hidden.feedback import failure
+    from autograder.sandbox import CallOutcome
+
+    text = failure("eightpoint", CallOutcome("exception", message="AttributeError: module 'numpy' has no "
+                                                                  "attribute 'float' (in eightpoint, q2.ipynb, line 3)"))
+    assert text.startswith("eightpoint raised AttributeError") and "np.float" in text, text
+
+
+# ------------------------------------------------------------------------------------- sandbox
+
+
+SUBMISSIONS = {
+    "transposed_refined_loses_q2": [("eightpoint", variants.EIGHTPOINT_TRANSPOSED_REFINED)],
+    "slicing_matcher_full": [("epipolarCorrespondence", variants.EPIPOLAR_SLICES_WITH_COORDINATES)],
+    "uint8_matcher_full": [("epipolarCorrespondence", variants.EPIPOLAR_UINT8_DIFFERENCES)],
+    "findM2_intrinsics_full": [("findM2", variants.FINDM2_INTRINSICS)],
+    "findM2_intrinsics_broken": [("findM2", variants.FINDM2_INTRINSICS_BROKEN)],
+}
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory, config):
+    import nbformat
+
+    root = tmp_path_factory.mktemp("conventions")
+    paths = []
+    for name, replacements in SUBMISSIONS.items():
+        nbs = corpus.notebooks("key")
+        for function, source in replacements:
+            corpus.replace_function(nbs, function, source)
+        folder = root / "subs" / name
+        folder.mkdir(parents=True)
+        for stem, nb in nbs.items():
+            nbformat.write(nb, folder / f"{stem}.ipynb")
+        paths.append(folder)
+    out = root / "out"
+    grade_batch(paths, out, jobs=2, config=config, progress=False, limits=LIMITS)
+    return {name: json.loads((out / name / "results.json").read_text()) for name in SUBMISSIONS}
+
+
+def _tests(results, words) -> list:
+    return [t for t in results["tests"] if words in t["name"]]
+
+
+def test_sandbox_polished_transposed_F_loses_q2(graded):
+    r = graded["transposed_refined_loses_q2"]
+    exact = _tests(r, "exact F")
+    assert exact and all(t["score"] == 0 for t in exact), exact
+    assert "refineF switched off" in exact[0]["output"]
+
+
+@pytest.mark.parametrize("name", ["slicing_matcher_full", "uint8_matcher_full"])
+def test_sandbox_matchers_get_full_q41(graded, name):
+    tests = _tests(graded[name], "matches on")
+    assert tests and all(t["score"] == t["max_score"] for t in tests), tests
+
+
+def test_sandbox_findM2_with_intrinsics_gets_full_q33(graded):
+    r = graded["findM2_intrinsics_full"]
+    tests = [t for t in r["tests"] if "M2" in t["name"] or "C2" in t["name"]]
+    assert tests and all(t["score"] == t["max_score"] for t in tests), tests
+
+
+def test_sandbox_failing_call_says_how_it_was_called(graded):
+    r = graded["findM2_intrinsics_broken"]
+    tests = [t for t in r["tests"] if "M2 is the camera" in t["name"]]
+    assert tests and tests[0]["score"] == 0
+    assert "called as findM2(F: a 3x3 float64 array" in tests[0]["output"], tests[0]["output"]
+
+
+def test_another_years_compute3D_pts_gets_full_Q42(hidden):
+    import solutions
+
+    fn = _defined(variants.COMPUTE3D_FIVE_ARGUMENTS, "compute3D_pts")
+    fn.__globals__.update(epipolarCorrespondence=solutions.epipolarCorrespondence, findM2=solutions.findM2)
+    q42 = _questions(hidden, compute3D_pts=fn, triangulate=lambda *a: None)["Q4.2"]
+    assert q42.score == q42.max_score, [t.feedback for t in q42.tests]
+    assert "as the course calls it" in q42.tests[0].feedback
