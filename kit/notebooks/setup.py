@@ -169,4 +169,3 @@ def _colab_text(stem: str, settings: Settings) -> str:
         text += ("  \n*(Placeholder link: the instructor sets the course repository with "
                  "`python -m kit release --repo-url https://github.com/ORG/REPO`.)*")
     return text
-

@@ -98,5 +98,3 @@ def make_car_scene(seed: int = 0, *, n_times: int = 10, width: int = 1920, heigh
                        for c in range(N_CAMERAS))
         scene = replace(scene, images=images)
     return scene
-
-

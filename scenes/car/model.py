@@ -156,4 +156,3 @@ def car_rotation(heading: float) -> np.ndarray:
     """
     c, s = np.cos(heading), np.sin(heading)
     return np.column_stack([[c, 0.0, s], [-s, 0.0, c], UP])
-

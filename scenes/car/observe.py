@@ -98,5 +98,3 @@ def _observe(rng, parts, kp_normals, kps_car, R_car, pos, centres, C, width, hei
     xy[..., 1] = np.clip(xy[..., 1], 0, height - 1)
     pts = np.concatenate([xy.astype(np.int64), conf[..., None]], axis=-1)
     return uv, occluded, pts
-
-

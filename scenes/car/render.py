@@ -141,5 +141,3 @@ def render_view(scene: CarScene, t: int, c: int, *, with_street: bool = True, wi
     if with_car:
         layers.append(Layer(_car_solids(scene, t, camera_center(M))))
     return render(layers, K, M, scene.width, scene.height, supersample=supersample)
-
-

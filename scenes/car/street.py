@@ -90,5 +90,3 @@ def _windows(v: np.ndarray, n: np.ndarray, height: float) -> Quads:
     corners = np.array([[0, 0], [1.4, 0], [1.4, 1.8], [0, 1.8]])
     quads = base.reshape(-1, 1, 3) + corners[:, :1] * along + corners[:, 1:] * UP
     return Quads(quads, (70, 84, 104))
-
-

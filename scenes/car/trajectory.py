@@ -85,5 +85,3 @@ def _jitter(rng, K: np.ndarray, M: np.ndarray, width: int):
     R = dR @ M[:, :3]
     centre = camera_center(M) + rng.normal(0, 0.02, 3)
     return Kt, np.hstack([R, (-R @ centre)[:, None]])
-
-
