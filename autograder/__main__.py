@@ -81,11 +81,20 @@ def _batch_errors(run):
         return 130
 
 
+def _private(run):
+    """Run ``run()`` with umask 077: results, logs and key copies are the grader's alone (restored after,
+    so a program that calls these commands in-process keeps its own umask)."""
+    old = os.umask(0o077)
+    try:
+        return run()
+    finally:
+        os.umask(old)
+
+
 def _grade(args) -> int:
-    os.umask(0o077)  # results, logs and the key copy are the grader's alone
     if args.regrade_into:
-        return _regrade_run(args, args.out, args.regrade_into, args.submissions)
-    return _batch_errors(lambda: _grade_run(args))
+        return _private(lambda: _regrade_run(args, args.out, args.regrade_into, args.submissions))
+    return _private(lambda: _batch_errors(lambda: _grade_run(args)))
 
 
 def _grade_options(args, config) -> dict:
@@ -111,7 +120,7 @@ def _grade_run(args) -> int:
 
 
 def _regrade(args) -> int:
-    return _regrade_run(args, args.old, args.into, args.submissions or None)
+    return _private(lambda: _regrade_run(args, args.old, args.into, args.submissions or None))
 
 
 def _regrade_run(args, old, new, paths) -> int:
@@ -144,9 +153,12 @@ def _accept(args) -> int:
 
 
 def _key(args) -> int:
+    return _private(lambda: _key_run(args))
+
+
+def _key_run(args) -> int:
     from .key import write_key_submission
 
-    os.umask(0o077)
 
     path = write_key_submission(args.out, zip_it=not args.no_zip)
     print(f"answer-key submission: {path}")
