@@ -95,8 +95,13 @@ def test_cli_gradescope_and_nbgrader_give_the_same_scores(setup, monkeypatch):
     cli = cli_scores(setup)
     gs = gradescope_scores(setup, monkeypatch)
     nb = nbgrader_scores(setup, monkeypatch)
+    # Each channel publishes at its own precision (grades.csv 4 decimals, results.json 6, the
+    # gradebook a float): the scores must be the same at the coarsest of them.
+    def published(scores):
+        return {q: round(v, 4) for q, v in scores.items()}
+
     for name in FIVE:
-        assert cli[name] == gs[name] == nb[name], (name, cli[name], gs[name], nb[name])
+        assert published(cli[name]) == published(gs[name]) == published(nb[name]), (name, cli[name], gs[name], nb[name])
     assert sum(cli["key_full_marks"].values()) == sum(cli["hartley_normalisation_full_marks"].values()) > 0
     assert sum(cli["untouched_student_zero"].values()) == 0
     assert cli["transposed_F_loses_Q2"]["Q2"] < cli["key_full_marks"]["Q2"]
