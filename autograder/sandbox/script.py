@@ -209,7 +209,9 @@ def command(rt: Runtime, workdir: Path, program: list[str]) -> list[str]:
 def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
     """The root shell that prepares the namespace, then runs ``program`` without exec."""
     q = shlex.quote
-    lines = ["set -e"]
+    # The folders this script makes (mount points such as a venv's parents on the private /tmp)
+    # must be traversable by the sandbox's uid whatever umask the grader runs with (077).
+    lines = ["set -e", "umask 022"]
     fd = 3
     binds: list[tuple[int, Path]] = []
 
