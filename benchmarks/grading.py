@@ -1,6 +1,7 @@
 """Grading throughput: 20 submissions graded with --jobs 1 and with --jobs 2, in submissions per minute.
 
     python benchmarks/grading.py [--count 20] [--quick] [--keep DIR]
+    python benchmarks/grading.py --class-of 30 [--quick]   # a class with 2 infinite loops and 2 memory bombs
 
 The submissions are the answer key and the corpus of tests/corpus (mistakes, valid alternatives,
 broken notebooks; the hostile ones are left out, they measure the sandbox rather than a class),
@@ -37,6 +38,9 @@ def main(argv=None) -> int:
     ap.add_argument("--count", type=int, default=20, help="submissions per run (default 20)")
     ap.add_argument("--quick", action="store_true", help="the small settings of the kit's tests")
     ap.add_argument("--keep", default=None, help="write the submissions and results here instead of a temp folder")
+    ap.add_argument("--class-of", type=int, default=0, metavar="N",
+                    help="instead: one class of N submissions, two of them with an infinite loop and two with a "
+                         "memory bomb, graded as a TA would (--jobs 2, canary on), beside the answer key alone")
     args = ap.parse_args(argv)
 
     import corpus
@@ -55,9 +59,28 @@ def main(argv=None) -> int:
         folder = corpus.build(name, root / "subs" / f"{k:02d}")
         paths.append(folder)
 
+    if args.class_of:
+        hostile = ["infinite_loop_in_rodriguesResidual_loses_part_of_Q5"] * 2 + ["memory_bomb_in_eightpoint_loses_Q2"] * 2
+        class_names = hostile + [names[k % len(names)] for k in range(max(args.class_of - len(hostile), 0))]
+        paths = [corpus.build(n, root / "class" / f"{k:02d}") for k, n in enumerate(class_names)]
+
     t0 = time.perf_counter()
     build_hidden_inputs(config)
     print(f"hidden inputs: {time.perf_counter() - t0:.1f} s (once per batch)")
+
+    if args.class_of:
+        t0 = time.perf_counter()
+        key = grade_batch([corpus.build("key_full_marks", root / "key-sub")], root / "key", jobs=1, config=config,
+                          resume=False, progress=False)[0]
+        print(f"answer key alone (with its canary): {time.perf_counter() - t0:.1f} s, {key.score:g} points")
+        t0 = time.perf_counter()
+        records = grade_batch(paths, root / "class-out", jobs=2, config=config, resume=False, progress=False)
+        seconds = time.perf_counter() - t0
+        print(f"class of {len(records)} (2 infinite loops, 2 memory bombs) at --jobs 2: {seconds:.1f} s, "
+              f"{60 * len(records) / seconds:.1f} submissions per minute (target: under 90 s)")
+        if not args.keep:
+            shutil.rmtree(root, ignore_errors=True)
+        return 0
 
     key_out = root / "key"
     t0 = time.perf_counter()
