@@ -341,6 +341,18 @@ def _kill_grading_processes(boxes: Sequence[Sandbox]) -> None:
                 pass
 
 
+def _drain(results: queue.Queue, running: dict, seconds: float) -> None:
+    """Take finished runs off ``results`` (discarding them: the batch is being cancelled) for up to
+    ``seconds``, until nothing runs."""
+    end = time.monotonic() + seconds
+    while running and time.monotonic() < end:
+        try:
+            _, name, _ = results.get(timeout=0.2)
+            running.pop(name, None)
+        except queue.Empty:
+            pass
+
+
 # ------------------------------------------------------------------------------------------------
 # the batch
 
@@ -620,21 +632,9 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
                     done(k, rec)
             cancelled = sorted(running)
             _signal_all(_descendants()[0], signal.SIGINT)  # the pytest runs stop and close their sessions
-            end = time.monotonic() + _INTERRUPT_GRACE
-            while running and time.monotonic() < end:
-                try:
-                    _, name, _ = results.get(timeout=0.2)
-                    running.pop(name, None)
-                except queue.Empty:
-                    pass
+            _drain(results, running, _INTERRUPT_GRACE)
             _kill_grading_processes(boxes)
-            end = time.monotonic() + _KILL_WAIT
-            while running and time.monotonic() < end:
-                try:
-                    _, name, _ = results.get(timeout=0.2)
-                    running.pop(name, None)
-                except queue.Empty:
-                    pass
+            _drain(results, running, _KILL_WAIT)
             for name in cancelled:
                 journal.clear(name)  # not the student's fault: graded again on resume, no strike
         if not cancel.is_set():

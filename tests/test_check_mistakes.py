@@ -24,25 +24,13 @@ from scenes.car import make_car_scene, write_car
 from scenes.temple import make_temple_scene, write_temple
 from starter import camera2, invRodrigues, refineF, rodrigues
 from starter.checks import (
-    check_bundleAdjustment,
-    check_compute3D_pts,
+    CHECKS,
     check_eightpoint,
     check_epipolarCorrespondence,
-    check_essentialMatrix,
-    check_findM2,
-    check_MultiviewReconstruction,
-    check_rodriguesResidual,
-    check_triangulate,
 )
 from starter.checks.instrument import refineF_switched_off, swapped
 from starter.checks.multiview import THRES
 
-CHECKS = {
-    "eightpoint": check_eightpoint, "essentialMatrix": check_essentialMatrix, "triangulate": check_triangulate,
-    "findM2": check_findM2, "epipolarCorrespondence": check_epipolarCorrespondence,
-    "compute3D_pts": check_compute3D_pts, "rodriguesResidual": check_rodriguesResidual,
-    "bundleAdjustment": check_bundleAdjustment, "MultiviewReconstruction": check_MultiviewReconstruction,
-}
 
 
 @pytest.fixture(scope="module")

@@ -16,6 +16,7 @@ from scenes.car import make_car_scene, write_car
 from scenes.temple import make_temple_scene, write_temple
 from starter import camera2, invRodrigues, rodrigues
 from starter.checks import (
+    CHECKS,
     CheckReport,
     check_bundleAdjustment,
     check_compute3D_pts,
@@ -32,12 +33,6 @@ from starter.checks._scenes import two_view
 from starter.checks.multiview import DESIGN_CONFIDENCE, THRES
 from starter.checks.report import DISCLAIMER, NOT_IMPLEMENTED, call
 
-CHECKS = {
-    "eightpoint": check_eightpoint, "essentialMatrix": check_essentialMatrix, "triangulate": check_triangulate,
-    "findM2": check_findM2, "epipolarCorrespondence": check_epipolarCorrespondence,
-    "compute3D_pts": check_compute3D_pts, "rodriguesResidual": check_rodriguesResidual,
-    "bundleAdjustment": check_bundleAdjustment, "MultiviewReconstruction": check_MultiviewReconstruction,
-}
 # The checks that use the default data: the others would need a reference answer (an F, a
 # pose) to use them, and the checks use none (nor OpenCV).
 USES_DEFAULT_DATA = {"eightpoint", "essentialMatrix", "MultiviewReconstruction"}
