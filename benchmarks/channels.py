@@ -23,7 +23,6 @@ import subprocess
 import sys
 import tempfile
 import time
-import zipfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -33,24 +32,9 @@ sys.path.insert(0, str(KIT_ROOT))
 from autograder import gradescope  # noqa: E402
 from tests import corpus  # noqa: E402
 from tests.corpus.hangs import build_all_hang  # noqa: E402
+from tests.gradescope_like import unpack  # noqa: E402
 
 _PERIOD = 100_000  # microseconds
-
-
-def unpack(bundle: Path, root: Path) -> Path:
-    ag = root / "autograder"
-    source = ag / "source"
-    source.mkdir(parents=True)
-    with zipfile.ZipFile(bundle) as zf:
-        for info in zf.infolist():
-            path = Path(zf.extract(info, source))
-            mode = (info.external_attr >> 16) & 0o777
-            if mode:
-                path.chmod(mode)
-    (ag / "submission").mkdir()
-    (ag / "results").mkdir()
-    shutil.copy2(source / "run_autograder", ag / "run_autograder")
-    return ag
 
 
 @contextmanager

@@ -22,7 +22,8 @@ from autograder import nbgrader_course as nc
 from autograder.config import quick_config
 from autograder.results import autograded_question_ids
 from tests import corpus
-from tests.test_gradescope import run_autograder, unpack
+from tests.gradescope_like import unpack
+from tests.test_gradescope import run_autograder
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 SECRET = "channels-test-secret-6071"

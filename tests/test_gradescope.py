@@ -26,6 +26,7 @@ from autograder import gradescope
 from autograder.config import load_config, quick_config
 from autograder.results import autograded_question_ids
 from core.manifest import NOTEBOOKS, QUESTIONS
+from tests.gradescope_like import unpack
 
 KIT_ROOT = Path(__file__).resolve().parents[1]
 KEY = KIT_ROOT / "notebooks" / "key"
@@ -63,24 +64,6 @@ def bundle(tmp_path_factory) -> Path:
 def names(bundle) -> list[str]:
     with zipfile.ZipFile(bundle) as zf:
         return zf.namelist()
-
-
-def unpack(bundle: Path, root: Path) -> Path:
-    """Lay ``bundle`` out as Gradescope does: <root>/autograder/{source,submission,results}."""
-    ag = root / "autograder"
-    source = ag / "source"
-    source.mkdir(parents=True)
-    with zipfile.ZipFile(bundle) as zf:
-        for info in zf.infolist():
-            path = Path(zf.extract(info, source))
-            mode = (info.external_attr >> 16) & 0o777
-            if mode:
-                path.chmod(mode)
-    (ag / "submission").mkdir()
-    (ag / "results").mkdir()
-    # Gradescope copies run_autograder next to source/ and runs that copy.
-    shutil.copy2(source / "run_autograder", ag / "run_autograder")
-    return ag
 
 
 def run_autograder(ag: Path, **env) -> dict:
