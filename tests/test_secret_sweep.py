@@ -176,7 +176,7 @@ def eightpoints():
     return valid, wrong
 
 
-# The reference's valid methods behind the fit goal (autograder/hidden/cases.py: the reference with
+# The reference's valid methods behind the fit goal (autograder/hidden/cases/fundamental.py: the reference with
 # and without refineF, and with Hartley's normalisation): the corpus programs doing exactly that.
 _GOAL_METHODS = ("key_full_marks", "no_refineF_full_marks", "hartley_normalisation_full_marks")
 # Mistakes seen only with uint16 points whose products pass 65535.

@@ -27,7 +27,7 @@ _PROBLEMS = 2   # the hidden scenes' first two (config.temples has at least two)
 
 @pytest.fixture(scope="session")
 def bundle(hidden):
-    """The prepared inputs (``autograder.hidden.cases.Bundle``)."""
+    """The prepared inputs (``autograder.hidden.cases.bundle.Bundle``)."""
     return hidden.prepared["bundle"]
 
 

@@ -118,7 +118,7 @@ def _best_match(student, case) -> Matched:
 
 @pytest.fixture(scope="session")
 def correspondence(hidden):
-    """The prepared inputs (``autograder.hidden.cases.Correspondence``)."""
+    """The prepared inputs (``autograder.hidden.cases.correspondence.Correspondence``)."""
     return hidden.prepared["correspondence"]
 
 

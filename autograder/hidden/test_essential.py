@@ -17,7 +17,7 @@ from judging.verdict import Malformed
 
 @pytest.fixture(scope="session")
 def essential(hidden):
-    """The prepared inputs (``autograder.hidden.cases.Essential``)."""
+    """The prepared inputs (``autograder.hidden.cases.essential.Essential``)."""
     return hidden.prepared["essential"]
 
 

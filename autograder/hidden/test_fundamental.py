@@ -24,7 +24,7 @@ from judging.verdict import Malformed
 
 @pytest.fixture(scope="session")
 def fundamental(hidden):
-    """The prepared inputs (``autograder.hidden.cases.Fundamental``)."""
+    """The prepared inputs (``autograder.hidden.cases.fundamental.Fundamental``)."""
     return hidden.prepared["fundamental"]
 
 

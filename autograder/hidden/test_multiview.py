@@ -30,7 +30,7 @@ _AXES = [(perm, signs) for perm in itertools.permutations(range(3))
 
 @pytest.fixture(scope="session")
 def multiview(hidden):
-    """The prepared inputs (``autograder.hidden.cases.Multiview``)."""
+    """The prepared inputs (``autograder.hidden.cases.multiview.Multiview``)."""
     return hidden.prepared["multiview"]
 
 

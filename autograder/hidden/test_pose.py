@@ -22,7 +22,7 @@ from judging.verdict import Malformed
 
 @pytest.fixture(scope="session")
 def pose(hidden):
-    """The prepared inputs (``autograder.hidden.cases.Pose``)."""
+    """The prepared inputs (``autograder.hidden.cases.pose.Pose``)."""
     return hidden.prepared["pose"]
 
 

@@ -32,7 +32,7 @@ class Triangulated:
 
 @pytest.fixture(scope="session")
 def triangulation(hidden):
-    """The prepared inputs (``autograder.hidden.cases.Triangulation``)."""
+    """The prepared inputs (``autograder.hidden.cases.triangulation.Triangulation``)."""
     return hidden.prepared["triangulation"]
 
 

@@ -1,0 +1,55 @@
+"""Q3.3: the inputs of ``findM2`` and the right camera of each.
+
+Conventions: pixels (x, y) = (column, row); M = [R | t] world -> camera; C = K M.  Nothing here
+reaches a student.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from judging.pose import pose_gap
+
+from ..scenes import Scenes
+
+
+@dataclass(frozen=True, eq=False)
+class PoseCase:
+    label: str
+    F: np.ndarray
+    pts1: np.ndarray
+    pts2: np.ndarray
+    K1: np.ndarray
+    K2: np.ndarray
+    right: np.ndarray    # (3, 4) the right candidate
+
+
+@dataclass(frozen=True, eq=False)
+class Pose:
+    cases: tuple[PoseCase, ...]
+
+
+def _nearest(candidates: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    gaps = [max(pose_gap(candidates[:, :, i], truth)) for i in range(candidates.shape[2])]
+    return candidates[:, :, int(np.argmin(gaps))]
+
+
+def prepare_pose(scenes: Scenes) -> Pose:
+    """An exact scene (K1 != K2) with its true F, and hidden scenes with the reference's F of their
+    noisy matches; the right candidate is the one nearest the true pose (the reference's choice on
+    the official data, which has no truth)."""
+    from solutions import eightpoint, essentialMatrix, findM2
+    from starter import camera2
+
+    tv = scenes.two_view
+    cases = [PoseCase("noise-free matches", tv.F, tv.pts1, tv.pts2, tv.K1, tv.K2, tv.M2)]
+    for tc in [scenes.hidden[0], *([scenes.official] if scenes.official else [])]:
+        F = eightpoint(tc.pts1, tc.pts2, tc.M)
+        if tc.has_truth:
+            right = _nearest(camera2(essentialMatrix(F, tc.K1, tc.K2)), tc.scene.M2)
+        else:
+            right = findM2(F, tc.pts1, tc.pts2, tc.K1, tc.K2)[0]
+        cases.append(PoseCase(tc.label, F, tc.pts1, tc.pts2, tc.K1, tc.K2, right))
+    return Pose(tuple(cases))
