@@ -14,13 +14,19 @@ from collections.abc import Sequence
 from judging.hints import numpy2_hint
 from judging.verdict import Malformed
 
-__all__ = ["called_as", "collapse", "exception_sentence", "failure", "kind", "mistake_note", "notes", "tidy", "value_of"]
+__all__ = ["PARAMETERS", "called_as", "collapse", "exception_sentence", "failure", "kind", "mistake_note", "notes",
+           "read_returned", "returned", "tidy", "value_of"]
 
-_MESSAGE_LIMIT = 300
+# A feedback line of a failed call holds the failure (its message cut to _FIRST_LINE_LIMIT), the
+# call with the kind of each argument (seven arguments take about 200 characters) and what came back.
+_MESSAGE_LIMIT = 600
 _FIRST_LINE_LIMIT = 80
 _LONG_NUMBER = re.compile(r"-?\d+\.\d{4,}(?:e[+-]?\d+)?")
 _NUMBER_RUN = re.compile(r"(?:-?\d[\d.e+-]*[\s,;]+){6,}-?\d[\d.e+-]*")
 _LONG_TOKEN = re.compile(r"[^\s()\[\]{},;:'\"]{33,}")
+# Any number with a fractional part or an exponent in a student's exception message: it may be a
+# hidden input's value (a message built from the arguments), however few digits it shows.
+_DECIMAL = re.compile(r"(?<![\w.])-?(?:\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+|\.\d+)(?![\w.])", re.I)
 _EXCEPTION = re.compile(r"^(?P<type>[A-Za-z_][\w.]*)(?::\s?(?P<message>.*?))?(?:\s\(in (?P<where>[^()]*)\))?$", re.S)
 
 
@@ -36,12 +42,14 @@ def tidy(message: str, limit: int = _MESSAGE_LIMIT) -> str:
 
 def exception_sentence(message: str) -> str:
     """'Type: first line of the message (in f, cell, line L)' from the sandbox's exception message,
-    the message's first line cut to a few words (never a dump of data)."""
+    the message's first line cut to a few words, its decimal numbers replaced by "[number]" (never
+    a dump of data, nor a hidden value however rounded)."""
     m = _EXCEPTION.match(str(message).strip())
     if m is None:
-        return tidy(str(message).strip().splitlines()[0] if str(message).strip() else "", _FIRST_LINE_LIMIT)
+        text = str(message).strip().splitlines()[0] if str(message).strip() else ""
+        return tidy(_DECIMAL.sub("[number]", text), _FIRST_LINE_LIMIT)
     first = (m.group("message") or "").strip().splitlines()
-    first = tidy(first[0], _FIRST_LINE_LIMIT) if first else ""
+    first = tidy(_DECIMAL.sub("[number]", first[0]), _FIRST_LINE_LIMIT) if first else ""
     text = m.group("type") + (f": {first}" if first else "")
     return text + (f" (in {tidy(m.group('where'), 120)})" if m.group("where") else "")
 
@@ -65,8 +73,26 @@ def failure(function: str, outcome) -> str:
     return f"{function}: {msg}" if msg else f"{function} failed"
 
 
+# The contract's parameter names of each graded function (the stubs' and the answer key's), for
+# the "called as" sentence of a failed call made as the contract says.
+PARAMETERS: dict[str, tuple[str, ...]] = {
+    "eightpoint": ("pts1", "pts2", "M"),
+    "essentialMatrix": ("F", "K1", "K2"),
+    "triangulate": ("C1", "pts1", "C2", "pts2"),
+    "findM2": ("F", "pts1", "pts2", "K1", "K2"),
+    "epipolarCorrespondence": ("im1", "im2", "F", "x1", "y1"),
+    "compute3D_pts": ("im1", "im2", "F", "x1", "y1", "C1", "C2"),
+    "rodriguesResidual": ("K1", "M1", "p1", "K2", "p2", "x"),
+    "bundleAdjustment": ("K1", "M1", "p1", "K2", "M2_init", "p2", "w_init"),
+    "MultiviewReconstruction": ("C1", "pts1", "C2", "pts2", "C3", "pts3", "Thres"),
+    "plot_3d_keypoint_video": ("pts_3d_video",),
+}
+
+
 def kind(value) -> str:
     """What sort of argument ``value`` is, never its values: "a 3x3 float64 array", "an int", ..."""
+    if value is None:
+        return "None"
     if hasattr(value, "shape") and hasattr(value, "dtype"):
         return f"a {'x'.join(str(n) for n in value.shape) or 'scalar'} {value.dtype} array"
     if isinstance(value, bool):
@@ -84,10 +110,43 @@ def kind(value) -> str:
     return f"a {type(value).__name__}"
 
 
-def called_as(function: str, names: Sequence[str], args: Sequence, kwargs: dict | None = None) -> str:
-    """'called as f(F: a 3x3 float64 array, x1: an int, ...)': the call's names and argument kinds."""
-    parts = [f"{n}: {kind(a)}" for n, a in zip(names, args)] + [f"{k}={kind(v)}" for k, v in (kwargs or {}).items()]
+def called_as(function: str, names: Sequence[str] | None, args: Sequence, kwargs: dict | None = None) -> str:
+    """'called as f(F: a 3x3 float64 array, x1: an int, ...)': the call's names and argument kinds.
+
+    ``names`` None: the contract's (:data:`PARAMETERS`); arguments beyond the names are listed by kind.
+    """
+    names = tuple(PARAMETERS.get(function, ()) if names is None else names)
+    parts = [f"{names[k]}: {kind(a)}" if k < len(names) else kind(a) for k, a in enumerate(args)]
+    parts += [f"{k}={kind(v)}" for k, v in (kwargs or {}).items()]
     return f"called as {function}({', '.join(parts)})"
+
+
+def returned(value) -> str:
+    """What a call gave back, by kind only: "a tuple of 2 (a 40x3 float64 array, a float)", "None"."""
+    if isinstance(value, (tuple, list)) and value:
+        items = ", ".join(kind(v) for v in value[:4]) + (", ..." if len(value) > 4 else "")
+        return f"{kind(value)} ({items})"
+    return kind(value)
+
+
+def read_returned(function: str, outcome, read, args: Sequence, *, names: Sequence[str] | None = None,
+                  kwargs: dict | None = None):
+    """``read(value)`` of what ``function(*args, **kwargs)`` returned (``outcome``, a ``CallOutcome``).
+
+    When the call did not return, or ``read`` finds the value malformed, raises :class:`Malformed`
+    whose sentence says what went wrong, how the function was called (argument kinds, under
+    ``names``, by default the contract's) and, for a malformed value, what came back: one place
+    for every check, never a hidden input's values.
+    """
+    call = called_as(function, names, args, kwargs)
+    if outcome is None or outcome.status in ("missing", "skipped"):
+        value_of(function, outcome)   # nothing was called: the sentence says so, with no call
+    if not outcome.ok:
+        raise Malformed(f"{failure(function, outcome)}; {call}")
+    try:
+        return read(outcome.value)
+    except Malformed as exc:
+        raise Malformed(f"{exc}; {call} returned {returned(outcome.value)}") from None
 
 
 def value_of(function: str, outcome):

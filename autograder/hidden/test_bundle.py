@@ -18,7 +18,7 @@ from __future__ import annotations
 import pytest
 
 from autograder.hidden.cases import M1, SECONDS
-from autograder.hidden.feedback import value_of
+from autograder.hidden.feedback import read_returned
 from judging import bundle as jb
 from judging.verdict import Malformed
 
@@ -34,13 +34,12 @@ def bundle(hidden):
 @pytest.fixture(scope="session")
 def adjusted(student, bundle) -> list:
     """Per problem: (result verdict, rotation verdict, reported-errors verdict), or the Malformed."""
-    outcomes = student.each("bundleAdjustment", [(pr.K1, M1, pr.p1, pr.K2, pr.M2_init, pr.p2, pr.w_init)
-                                                 for pr in bundle.problems],
-                            seconds=SECONDS["bundleAdjustment"], slack=5)
+    inputs = [(pr.K1, M1, pr.p1, pr.K2, pr.M2_init, pr.p2, pr.w_init) for pr in bundle.problems]
+    outcomes = student.each("bundleAdjustment", inputs, seconds=SECONDS["bundleAdjustment"], slack=5)
     out = []
-    for pr, o in zip(bundle.problems, outcomes):
+    for pr, args, o in zip(bundle.problems, inputs, outcomes):
         try:
-            M2, w, o1, o2 = jb.read_ba(value_of("bundleAdjustment", o), len(pr.p1))
+            M2, w, o1, o2 = read_returned("bundleAdjustment", o, lambda v, n=len(pr.p1): jb.read_ba(v, n), args)
         except Malformed as exc:
             out.append(exc)
             continue
@@ -56,7 +55,7 @@ def test_rodriguesResidual_returns_the_handouts_residuals(student, bundle, score
     right, lines, mistakes = 0, [], []
     for k, (inp, o) in enumerate(zip(inputs, outcomes), start=1):
         try:
-            r = jb.read_residuals(value_of("rodriguesResidual", o), len(inp[2]))
+            r = read_returned("rodriguesResidual", o, lambda v, n=len(inp[2]): jb.read_residuals(v, n), inp)
         except Malformed as exc:
             lines.append(f"input {k}: {exc}")
             continue
@@ -88,6 +87,7 @@ def _lines_or_problem(adjusted, lines) -> list:
 @pytest.mark.points(2, question="Q5", name="M2 holds a rotation")
 def test_M2_holds_a_rotation(bundle, adjusted, score):
     lines = [f"{pr.label}: M2[:, :3] is {'' if a[1].passed else 'not '}a rotation"
+             + ("" if a[1].passed else f" (goal {a[1].goal})")
              for pr, a in zip(bundle.problems, adjusted) if not isinstance(a, Malformed)]
     ok = all(not isinstance(a, Malformed) and a[1].passed for a in adjusted)
     score.grade(float(ok), _lines_or_problem(adjusted, lines))

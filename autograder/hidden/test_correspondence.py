@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from autograder.hidden.cases import SECONDS, matching_labels
-from autograder.hidden.feedback import called_as, failure, value_of
+from autograder.hidden.feedback import called_as, failure, read_returned, returned
 from autograder.hidden.plugin import config_of
 from judging import correspondence as jc
 from judging.verdict import Malformed
@@ -94,7 +94,8 @@ def _match(student, case, convention: str = "course") -> Matched:
         if point is None:
             errors += 1
             first = first or (f"{failure(_MATCH, o)}; {called}" if not o.ok
-                              else f"{_MATCH} should return the two numbers (x2, y2)")
+                              else f"{_MATCH} should return the two numbers (x2, y2); {called} returned "
+                                   f"{returned(o.value)}")
             continue
         pts2[k] = point
     return Matched(None, pts2, errors, first, reached, how)
@@ -155,19 +156,23 @@ def _pipeline(student, case, m: Matched) -> tuple[np.ndarray | None, str]:
     good = np.all(np.isfinite(m.pts2), axis=1)
     if not good.any():
         return w, "no point was matched"
-    o = student.each("triangulate", [(case.C1, case.pts1[good], case.C2, m.pts2[good])],
-                     seconds=SECONDS["compute3D_pts.triangulate"])[0]
+    args = (case.C1, case.pts1[good], case.C2, m.pts2[good])
+    o = student.each("triangulate", [args], seconds=SECONDS["compute3D_pts.triangulate"])[0]
     try:
-        value = value_of("triangulate", o)
+        w[good] = read_returned("triangulate", o, lambda v: _first_points(v, int(good.sum())), args)
     except Malformed as exc:
         return w, f"triangulate: {exc}"
+    return w, ""
+
+
+def _first_points(value, n: int) -> np.ndarray:
+    """The (n, 3) points triangulate returned first (or alone), or Malformed."""
     if isinstance(value, (tuple, list)) and value:
         value = value[0]
     try:
-        w[good] = np.asarray(value, dtype=float).reshape(int(good.sum()), 3)
+        return np.asarray(value, dtype=float).reshape(n, 3)
     except (TypeError, ValueError):
-        return w, "triangulate did not return (N, 3) points first"
-    return w, ""
+        raise Malformed("triangulate did not return (N, 3) points first") from None
 
 
 def five_arguments(signature) -> bool:
@@ -190,11 +195,11 @@ def _five_argument_points(student, c, n):
         args = (pts, intrinsics, c.F, im1, im2)
         o = student.each("compute3D_pts", [args], seconds=SECONDS[_MATCH] * n + SECONDS["compute3D_pts.triangulate"]
                          + SECONDS["findM2"])[0]
+        names = ("temple_pts1", "intrinsics", "F", "im1", "im2")
         try:
-            w = jc.read_points(value_of("compute3D_pts", o), n) * scale
+            w = read_returned("compute3D_pts", o, lambda v: jc.read_points(v, n), args, names=names) * scale
         except Malformed as exc:
-            names = ("temple_pts1", "intrinsics", "F", "im1", "im2")
-            problem = problem or f"{exc}; {called_as('compute3D_pts', names, args)}"
+            problem = problem or str(exc)
             continue
         return jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d), how, ""
     return None, "", problem
@@ -217,11 +222,10 @@ def test_3D_points_of_the_temple(student, correspondence, matched, signatures, s
         args = (image(c.im1), image(c.im2), c.F, xy[:, :1].copy(), xy[:, 1:].copy(), c.C1, c.C2)
         o = student.each("compute3D_pts", [args], seconds=SECONDS[_MATCH] * n + SECONDS["compute3D_pts.triangulate"])[0]
         try:
-            w = jc.read_points(value_of("compute3D_pts", o), n)
+            w = read_returned("compute3D_pts", o, lambda v: jc.read_points(v, n), args)
             v = jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d)
         except Malformed as exc:
-            if not direct_problem:
-                direct_problem = f"{exc}; {called_as('compute3D_pts', ('im1', 'im2', 'F', 'x1', 'y1', 'C1', 'C2'), args)}"
+            direct_problem = direct_problem or str(exc)
             continue
         if direct_v is None or v.fraction > direct_v.fraction:
             direct_v, direct_how = v, how

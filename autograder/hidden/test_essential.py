@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import value_of
+from autograder.hidden.feedback import read_returned
 from judging import essential as je
 from judging.verdict import Malformed
 
@@ -24,12 +24,12 @@ def essential(hidden):
 @pytest.fixture(scope="session")
 def essential_E(student, essential) -> list:
     """The student's E (or the Malformed) for each input, then for the true F: one request."""
-    outcomes = student.each("essentialMatrix", [*essential.inputs, essential.true_F],
-                            seconds=SECONDS["essentialMatrix"])
+    inputs = [*essential.inputs, essential.true_F]
+    outcomes = student.each("essentialMatrix", inputs, seconds=SECONDS["essentialMatrix"])
     out = []
-    for o in outcomes:
+    for args, o in zip(inputs, outcomes):
         try:
-            out.append(je.read_E(value_of("essentialMatrix", o)))
+            out.append(read_returned("essentialMatrix", o, je.read_E, args))
         except Malformed as exc:
             out.append(exc)
     return out

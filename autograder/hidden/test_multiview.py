@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import value_of
+from autograder.hidden.feedback import called_as, read_returned
 from judging import multiview as jm
 from judging.verdict import Malformed, read_array
 
@@ -38,13 +38,12 @@ def multiview(hidden):
 def reconstructed(student, multiview) -> dict:
     """The student's P (12, 3) (or the Malformed) of every step, sequence and probes: one request."""
     steps = (*multiview.sequence, *multiview.probes)
-    outcomes = student.each("MultiviewReconstruction",
-                            [(s.C[0], s.pts[0], s.C[1], s.pts[1], s.C[2], s.pts[2], s.Thres) for s in steps],
-                            seconds=SECONDS["MultiviewReconstruction"])
+    inputs = [(s.C[0], s.pts[0], s.C[1], s.pts[1], s.C[2], s.pts[2], s.Thres) for s in steps]
+    outcomes = student.each("MultiviewReconstruction", inputs, seconds=SECONDS["MultiviewReconstruction"])
     out = {}
-    for step, o in zip(steps, outcomes):
+    for step, args, o in zip(steps, inputs, outcomes):
         try:
-            out[step] = jm.read_P(value_of("MultiviewReconstruction", o), len(step.P_true))
+            out[step] = read_returned("MultiviewReconstruction", o, lambda v, n=len(step.P_true): jm.read_P(v, n), args)
         except Malformed as exc:
             out[step] = exc
     return out
@@ -75,7 +74,8 @@ def test_only_detections_above_Thres_are_used(multiview, reconstructed, score):
         v = jm.threshold_probe(P, step.P_true, step.pts[:, :, 2].T, step.Thres, step.goal)
         right += v.passed
         mistakes += v.mistakes
-        lines.append(f"{step.label} (Thres = {step.Thres}): {v.measured.split(' within')[0]} keypoints right")
+        lines.append(f"{step.label} (Thres = {step.Thres}): {v.measured.split(' within')[0]} keypoints right"
+                     + ("" if v.passed else " (goal: all)"))
     score.grade(right / len(multiview.probes), lines, mistakes)
 
 
@@ -105,13 +105,16 @@ def drawn_share(drawn: np.ndarray, video: np.ndarray) -> float:
 def test_plot_3d_keypoint_video_draws_a_sequence(student, multiview, score):
     o = student.each("plot_3d_keypoint_video", [(multiview.video,)], seconds=SECONDS["plot_3d_keypoint_video"],
                      figure=True)[0]
+    args = (multiview.video,)
     try:
-        drawn = value_of("plot_3d_keypoint_video", o)
+        # What the sandbox reports for a figure call: the (K, 3) points its 3D figures show.
+        drawn = read_returned("plot_3d_keypoint_video", o, lambda v: read_array(v, (None, 3), "the drawn points"),
+                              args)
     except Malformed as exc:
         score.grade(0.0, [str(exc)])
-    try:
-        shown = drawn_share(read_array(drawn, (None, 3), "the drawn points"), multiview.video)
-    except Malformed:
-        shown = 0.0
-    score.grade(float(shown >= _PLOT_SHARE),
-                [f"your figure shows {shown:.0%} of the keypoints of the sequence (goal >= {_PLOT_SHARE:.0%})"])
+    shown = drawn_share(drawn, multiview.video)
+    lines = [f"your figure shows {shown:.0%} of the keypoints of the sequence (goal >= {_PLOT_SHARE:.0%})"]
+    if shown < _PLOT_SHARE:
+        lines.append(f"{called_as('plot_3d_keypoint_video', None, args)}, its figures (returned or opened with "
+                     f"pyplot) drew {len(drawn)} 3D points")
+    score.grade(float(shown >= _PLOT_SHARE), lines)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from autograder.hidden.cases import M1, SECONDS
-from autograder.hidden.feedback import called_as, value_of
+from autograder.hidden.feedback import read_returned
 from judging import pose as jp
 from judging.verdict import Malformed
 
@@ -55,9 +55,9 @@ def findM2_verdicts(student, pose, signatures) -> list:
     out = []
     for case, o, (args, names) in zip(pose.cases, outcomes, calls):
         try:
-            M2, C2, w = jp.read_findM2(value_of("findM2", o), len(case.pts1))
+            M2, C2, w = read_returned("findM2", o, lambda v, n=len(case.pts1): jp.read_findM2(v, n), args, names=names)
         except Malformed as exc:
-            out.append(Malformed(f"{exc}; {called_as('findM2', names, args)}"))
+            out.append(exc)
             continue
         linear_err = np.inf
         if np.all(np.isfinite(M2)):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import value_of
+from autograder.hidden.feedback import read_returned
 from judging import triangulation as jt
 from judging.verdict import Malformed, Verdict
 
@@ -40,12 +40,12 @@ def triangulation(hidden):
 def triangulated(student, triangulation) -> dict:
     """Every case's ``Triangulated``, by case (the exact one first): one request, each judged once."""
     cases = triangulation.all
-    outcomes = student.each("triangulate", [(c.C1, c.pts1, c.C2, c.pts2) for c in cases],
-                            seconds=SECONDS["triangulate"])
+    inputs = [(c.C1, c.pts1, c.C2, c.pts2) for c in cases]
+    outcomes = student.each("triangulate", inputs, seconds=SECONDS["triangulate"])
     out = {}
-    for case, o in zip(cases, outcomes):
+    for case, args, o in zip(cases, inputs, outcomes):
         try:
-            w, err = jt.read_w_err(value_of("triangulate", o), len(case.pts1))
+            w, err = read_returned("triangulate", o, lambda v, n=len(case.pts1): jt.read_w_err(v, n), args)
         except Malformed as exc:
             out[case] = Triangulated(exc)
             continue
