@@ -58,6 +58,7 @@ from .submission_layout import (
     GIVEN_HELPER_SOURCE,
     Candidate,
     Signature,
+    another_years_ransacF,
     choose,
     free_globals,
     module_names,
@@ -146,7 +147,9 @@ class Note:
     was found), "not_used" (``file`` left out, ``detail``: why), "duplicate" (``name`` defined in
     ``count`` files; ``file`` the one used, ``detail``: why and where the others are),
     "given_helper" (``name``: the module, ``file``: a file importing it; the kit's helpers are
-    given), "module_name" (``name`` claimed by several files; ``file`` the one importable by it).
+    given), "module_name" (``name`` claimed by several files; ``file`` the one importable by it),
+    "other_year" (``name``: a helper the kit gives, defined by the student with an earlier year's
+    signature, ``detail``; ``file``: where).
     file: the submission's file concerned (None for "no_file" and "borrowed").
     """
 
@@ -183,6 +186,10 @@ class Note:
         if self.kind == "given_helper":
             return (f"{self.file} imports {self.name}, which the submission does not contain: the kit's given "
                     "helpers (refineF, camera2, ransacF, rodrigues ...) were used for it.")
+        if self.kind == "other_year":
+            return (f"{self.file}: your own {self.name}{self.detail} was recognised as another course year's "
+                    f"signature (no eightpoint argument). This homework gives {self.name} (starter) and does not "
+                    "grade it; the grader never calls yours.")
         if self.kind == "module_name":
             return f"Several files are named {self.name}; import {self.name} gives {self.file} ({self.detail})."
         return f"{self.file}: {self.detail}"
@@ -454,8 +461,19 @@ def _assemble(name: str, files: dict[str, ParsedNotebook], stems: Sequence[str])
         if importers:
             modules[helper] = GIVEN_HELPERS_ORIGIN
             layout.append(Note("given_helper", importers[0], name=helper))
+    layout += _other_years(files)
     job = _job(files, modules, module_files, functions)
     return Submission(name, notebooks, missing, (), dict(files), modules, functions, tuple(layout), job)
+
+
+def _other_years(files: dict[str, ParsedNotebook]) -> list[Note]:
+    """One note for a given helper the student wrote with an earlier year's signature (ransacF without
+    the eightpoint argument): the last such definition in reading order, as the one a reader meets."""
+    found = [pf for pf in files.values() if pf.readable and another_years_ransacF(pf.signatures.get("ransacF"))]
+    if not found:
+        return []
+    pf = found[-1]
+    return [Note("other_year", pf.filename, pf.stem or None, name="ransacF", detail=str(pf.signatures["ransacF"]))]
 
 
 def _count(pf: ParsedNotebook, function: str) -> int:

@@ -13,7 +13,8 @@ read and no code is run here):
   the one used is the file whose name (or notebook stem) matches the function's question, else
   the last one defined in reading order, and the reason is said in words;
 - :func:`signature_of`: a function's parameters, read from its syntax tree, so the grader can
-  recognise another course year's signature;
+  recognise another course year's signature (:func:`another_years_ransacF` for a helper the kit
+  gives and earlier years had students write);
 - :data:`GIVEN_HELPER_SOURCE`: the body of the ``helper`` (and ``helpers``) module a student
   imports without shipping it: the kit's given helpers (``starter``).
 """
@@ -36,6 +37,7 @@ __all__ = [
     "GIVEN_HELPER_SOURCE",
     "Candidate",
     "Signature",
+    "another_years_ransacF",
     "choose",
     "file_label",
     "file_rank",
@@ -233,6 +235,16 @@ class Signature:
         if self.varkw:
             parts.append(f"**{self.varkw}")
         return f"({', '.join(parts)})"
+
+
+def another_years_ransacF(signature: Signature | None) -> bool:
+    """True for an earlier year's ``ransacF(pts1, pts2, M, nIters=1000, tol=0.42)``: three required
+    parameters and none taking the eight-point function, which the kit's
+    ``ransacF(pts1, pts2, M, eightpoint, nIters=1000, tol=1.0)`` takes fourth."""
+    if signature is None or signature.varargs or len(signature.positional) < 3:
+        return False
+    names = [p.lower() for p in (*signature.positional, *signature.kwonly)]
+    return len(signature.required) == 3 and not any("eight" in p for p in names)
 
 
 def signature_of(node: ast.AST) -> Signature | None:

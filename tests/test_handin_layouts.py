@@ -60,6 +60,36 @@ def test_submission_py_hand_in_runs_no_script_code(built):
                 assert "np.load(" not in u.source and "findM2(" not in u.source
 
 
+OTHER_YEAR_RANSACF = {"layout_submission_py_full_marks": "submission.py",
+                      "layout_submission_py_q2_transposed_loses_q2": "submission.py",
+                      "layout_per_part_files_full_marks": "HW4 final (2)/andrew_hw4/code/q5_1_ransac.py"}
+RANSACF_NOTE = "ransacF(pts1, pts2, M, nIters=..., tol=...) was recognised as another course year's signature"
+
+
+@pytest.mark.parametrize("name", list(handin_layouts.CASES))
+def test_another_years_ransacF_is_noted_once(built, name):
+    notes = [str(n) for n in load_submission(built[name]).notes() if n.kind == "other_year"]
+    if name not in OTHER_YEAR_RANSACF:
+        assert notes == []
+        return
+    assert len(notes) == 1, notes
+    assert notes[0].startswith(OTHER_YEAR_RANSACF[name] + ": your own " + RANSACF_NOTE), notes[0]
+    assert "does not grade it" in notes[0]
+
+
+def test_ransacF_signatures_are_told_apart():
+    from autograder.submission_layout import Signature, another_years_ransacF
+
+    assert another_years_ransacF(Signature(("pts1", "pts2", "M", "nIters", "tol"), 2))
+    assert another_years_ransacF(Signature(("pts1", "pts2", "M")))
+    assert not another_years_ransacF(Signature(("pts1", "pts2", "M", "eightpoint", "nIters", "tol", "rng",
+                                                "confidence"), 4))           # the kit's own
+    assert not another_years_ransacF(Signature(("pts1", "pts2", "M", "nIters", "tol"), 0))   # five required
+    assert not another_years_ransacF(Signature(("pts1", "pts2", "M"), 0, kwonly=("eightpoint_fn",)))
+    assert not another_years_ransacF(Signature(("pts1", "pts2"), 0, varargs="args"))
+    assert not another_years_ransacF(None)
+
+
 @pytest.mark.slow
 def test_each_layout_gets_the_grade_its_name_says(built, tmp_path):
     config = quick_config()
@@ -84,3 +114,5 @@ def test_each_layout_gets_the_grade_its_name_says(built, tmp_path):
                 assert score < q.points, f"{name}: {q.id} should lose points, got {score}/{q.points}"
             else:
                 assert score == pytest.approx(q.points), f"{name}: {q.id} got {score}/{q.points}"
+        output = json.loads((out / submission_name(path) / "results.json").read_text())["output"]
+        assert output.count(RANSACF_NOTE) == (name in OTHER_YEAR_RANSACF), (name, output)

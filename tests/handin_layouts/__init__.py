@@ -3,11 +3,13 @@
 The function sources are the answer key's own defining cells (``corpus.notebooks("key")``, built
 from solutions/), put into the files each course year handed in:
 
-- 2018-2021: ``submission.py`` with the homework's functions, ``helper.py`` (the student's own
+- 2018-2021: ``submission.py`` with the homework's functions (and that year's own
+  ``ransacF(pts1, pts2, M, nIters, tol)``, which the kit gives and does not grade), ``helper.py`` (the student's own
   copy of refineF and the other given helpers), ``findM2.py`` and ``visualize.py`` importing
   from them, each with a script part (data loading from relative paths, plots) under
   ``if __name__ == "__main__":`` or at top level;
-- 2022-2024: one file per part (``q2_1_eightpoint.py``, ``q3_1_essential_matrix.py`` ...)
+- 2022-2024: one file per part (``q2_1_eightpoint.py``, ``q3_1_essential_matrix.py``,
+  ``q5_1_ransac.py`` with that year's ``ransacF`` ...)
   importing each other (``from q3_1_essential_matrix import essentialMatrix``) and ``helper``
   without shipping it, zipped inside nested folders under an odd name (``HW4 final (2).zip``);
 - one notebook holding everything, with the cells that run it;
@@ -99,9 +101,31 @@ if __name__ == "__main__":
 '''
 
 
+# ransacF as earlier years had students write it (the kit gives its own, with an eightpoint
+# argument, and grades none): recognised by its parameters, noted, never called by the grader.
+RANSACF_OTHER_YEAR = '''\
+def ransacF(pts1, pts2, M, nIters=1000, tol=0.42):
+    """Q5.1: F of the most matches within tol px of their epipolar lines, over nIters 8-point samples."""
+    rng = np.random.default_rng(0)
+    pts1, pts2 = np.asarray(pts1, dtype=float), np.asarray(pts2, dtype=float)
+    h1 = np.column_stack([pts1, np.ones(len(pts1))])
+    h2 = np.column_stack([pts2, np.ones(len(pts2))])
+    best = np.zeros(len(pts1), dtype=bool)
+    for _ in range(nIters):
+        sample = rng.choice(len(pts1), 8, replace=False)
+        lines = h1 @ eightpoint(pts1[sample], pts2[sample], M).T
+        inliers = np.abs(np.sum(h2 * lines, axis=1)) / np.hypot(lines[:, 0], lines[:, 1]) < tol
+        if inliers.sum() > best.sum():
+            best = inliers
+    return eightpoint(pts1[best], pts2[best], M), best
+'''
+
+
 def submission_py(eightpoint_source: str | None = None) -> dict[str, bytes]:
-    """The 2018-2021 hand-in: submission.py, helper.py (own refineF), findM2.py, visualize.py."""
-    main = [key_cell("eightpoint", helper=True) if eightpoint_source is None else eightpoint_source]
+    """The 2018-2021 hand-in: submission.py (with the year's own ransacF), helper.py (own refineF),
+    findM2.py, visualize.py."""
+    main = [key_cell("eightpoint", helper=True) if eightpoint_source is None else eightpoint_source,
+            RANSACF_OTHER_YEAR]
     main += [_cells("essentialMatrix", "triangulate", "epipolarCorrespondence", "rodriguesResidual",
                     "bundleAdjustment", "MultiviewReconstruction", "plot_3d_keypoint_video", helper=True)]
     submission = ('"""\nHomework4.\nReplace \'pass\' by your implementation.\n"""\n\n'
@@ -146,6 +170,11 @@ def per_part_files() -> dict[str, bytes]:
                                             + variants.EIGHTPOINT_TRANSPOSED + main),
         "q4_2_visualize.py": ("from q4_1_epipolar_correspondence import epipolarCorrespondence\n"
                               "from q3_2_triangulate import findM2, triangulate\n\n" + key_cell("compute3D_pts") + main),
+        "q5_1_ransac.py": ("import numpy as np\nfrom q2_1_eightpoint import eightpoint\n"
+                           "from helper import displayEpipolarF, calc_epi_error, toHomogenous\n\n\n"
+                           + RANSACF_OTHER_YEAR
+                           + "\n\nif __name__ == \"__main__\":\n    noisy = np.load('data/some_corresp_noisy.npz')\n"
+                             "    F, inliers = ransacF(noisy['pts1'], noisy['pts2'], 640)\n"),
         "q5_bundle_adjustment.py": ("from helper import displayEpipolarF, calc_epi_error, plot_3d_keypoint\n"
                                     "from q2_1_eightpoint import eightpoint\nfrom q3_2_triangulate import findM2\n\n"
                                     + _cells("rodriguesResidual", "bundleAdjustment", helper=True) + main),
