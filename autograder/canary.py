@@ -14,9 +14,7 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,7 +23,7 @@ from pathlib import Path
 from .grade import grade_submission
 from .key import write_key_submission
 from .results import SubmissionResult
-from .sandbox import Sandbox
+from .sandbox import Sandbox, leftovers
 
 __all__ = ["CANARY_ID", "CanaryFailed", "CanaryReport", "check"]
 
@@ -83,10 +81,10 @@ def check(sandbox: Sandbox, hidden_inputs, *, extra_tests: Sequence[str | os.Pat
         names the checks that failed, the cause found and the fix.
     """
     start = time.monotonic()
-    scratch = None
+    scratch = scratch_fd = None
     try:
         if key is None:
-            scratch = Path(tempfile.mkdtemp(prefix="hw4-canary-"))  # 0700: the grader's own
+            scratch, scratch_fd = leftovers.owned_folder("hw4-canary-")  # 0700: the grader's own
             try:
                 key = write_key_submission(scratch, zip_it=False)
             except Exception as exc:  # noqa: BLE001 - any failure to make the key stops the batch
@@ -106,8 +104,7 @@ def check(sandbox: Sandbox, hidden_inputs, *, extra_tests: Sequence[str | os.Pat
             raise CanaryFailed(_message(sandbox, lost, staff, result))
         return CanaryReport(result.score, result.max_score, time.monotonic() - start, sandbox.isolation.as_dict())
     finally:
-        if scratch is not None:
-            shutil.rmtree(scratch, ignore_errors=True)
+        leftovers.release(scratch, scratch_fd)
 
 
 def _lost(result: SubmissionResult) -> list[str]:

@@ -30,7 +30,7 @@ from pathlib import Path
 from .hidden import inputs
 from .hidden.inputs import HiddenInputs
 from .results import SubmissionResult
-from .sandbox import Sandbox
+from .sandbox import ResourceLimits, Sandbox, leftovers
 
 __all__ = ["HIDDEN_DIR", "KIT_ROOT", "grade_submission", "pytest_command"]
 
@@ -46,8 +46,9 @@ _idle_lock = threading.Lock()
 
 
 def _private_folder(prefix: str) -> Path:
-    folder = Path(tempfile.mkdtemp(prefix=prefix))  # mode 0700
-    atexit.register(shutil.rmtree, folder, True)
+    # Mode 0700, its owner recorded, so that a sweep removes it if this process is killed.
+    folder, fd = leftovers.owned_folder(prefix)
+    atexit.register(leftovers.release, folder, fd)
     return folder
 
 
@@ -63,9 +64,17 @@ def hidden_cache(hidden: HiddenInputs) -> Path:
         return found[1]
 
 
-def budget_of(hidden: HiddenInputs) -> float:
-    """Wall-clock seconds of one submission's session: every check's time, loading and restarts."""
-    return hidden.call_seconds() + hidden.config.load_timeout * (1 + _RESTARTS_BUDGETED) + 30
+def budget_of(hidden: HiddenInputs, limits: ResourceLimits | None = None) -> float:
+    """Wall-clock seconds of one submission's session: every check's time, loading and restarts.
+
+    Under the CPU clock (``limits.clock == "cpu"``, Gradescope) the checks' seconds are CPU
+    seconds, which take 1 / ``limits.cpu_share`` wall-clock seconds where the code gets only a
+    share of a CPU: that part grows by as much, so that a slow container is never cut short by
+    this wall-clock backstop before its CPU limits.  Loading is limited in wall-clock seconds
+    (``load_timeout``) whatever the clock.
+    """
+    stretch = limits.wall_per_cpu if limits is not None else 1.0
+    return (hidden.call_seconds() + 30) * stretch + hidden.config.load_timeout * (1 + _RESTARTS_BUDGETED)
 
 
 class _Worker:
@@ -194,13 +203,13 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
         results = work / "results.json"
         config_file = work / "config.json"
         config_file.write_text(json.dumps(hidden_inputs.config.to_dict()))
-        budget = budget_of(hidden_inputs)
+        budget = budget_of(hidden_inputs, sandbox.limits)
         argv = pytest_command(path, extra_tests=[Path(p).resolve() for p in extra_tests], options=[
             "--grading-config", str(config_file), "--hidden-cache", str(cache), "--sandbox-spec", str(spec),
             "--results", str(results), "--student-id", student_id, "--budget", repr(budget)])
         log = work / "pytest.log"
         worker = _take_worker()
-        code = worker.run(argv, log, budget + _MARGIN)
+        code = worker.run(argv, log, budget + _MARGIN * sandbox.limits.wall_per_cpu)
         with _idle_lock:
             _idle.append(worker)
         if code not in (0, 1, 5) or not results.is_file():  # 5: no check ran (an unreadable submission)
@@ -217,4 +226,4 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
         return SubmissionResult.failed(result.failure, student_id=student_id, isolation=isolation,
                                        execution_time=time.monotonic() - start)
     return SubmissionResult(result.questions, student_id, result.isolation or isolation, result.notes, None,
-                            time.monotonic() - start)
+                            time.monotonic() - start, result.configuration)  # {"draw": digest}

@@ -23,8 +23,9 @@ Contents of the zip (paths relative to /autograder/source):
 ``grader_config.json``                the instructor's grading settings at build time, with the
                                       secret all hidden seeds derive from (``autograder.config``)
 ``hidden_inputs/``                    the hidden inputs made at build time from that config
-                                      (``autograder.hidden.inputs.save``), so that no container
-                                      makes them again
+                                      (``autograder.hidden.inputs.save``), with the answer key's
+                                      draw, so that a container makes only the submission's own
+                                      draw (about a second)
 ``answer_key.zip``                    the answer-key submission (``autograder.key``), graded by
                                       the canary before every submission (a container has
                                       neither kit/ nor notebooks/key to make it)
@@ -266,15 +267,22 @@ def key_file(scratch: Path) -> list[tuple[str, Path]]:
     return [(KEY_NAME, write_key_submission(scratch / "key", zip_it=True))]
 
 
-def hidden_inputs_file(scratch: Path) -> list[tuple[str, Path]]:
+def hidden_inputs_file(scratch: Path, key: Path | None = None) -> list[tuple[str, Path]]:
     """The hidden inputs of ``scratch/grader_config.json`` (written by ``config_file``), made now and
-    saved by ``autograder.hidden.inputs.save`` under ``scratch/hidden_inputs``: the bundle's members."""
+    saved by ``autograder.hidden.inputs.save`` under ``scratch/hidden_inputs``: the bundle's members.
+
+    ``key``: the answer-key submission the canary grades; its draw is made now too
+    (``inputs.with_draws``), so that a container makes only the submission's own draw."""
     from .config import load_config
     from .hidden import inputs
+    from .submission import load_submission
 
     config = load_config(scratch / CONFIG_NAME, environ={})
     folder = scratch / HIDDEN_INPUTS_DIR
-    inputs.save(inputs.build_hidden_inputs(config), folder)
+    hidden = inputs.build_hidden_inputs(config)
+    if key is not None:
+        hidden = inputs.with_draws(hidden, [inputs.code_salt(load_submission(key))])
+    inputs.save(hidden, folder)
     return [(f"{HIDDEN_INPUTS_DIR}/{p.name}", p) for p in sorted(folder.iterdir()) if p.is_file()]
 
 
@@ -315,7 +323,8 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
     with tempfile.TemporaryDirectory(prefix="hw4-gradescope-") as tmp:
         scratch = Path(tmp)
         members = grader_files(root) + data_files(root, scratch) + config_file(scratch, allow_dev_secret=allow_dev_secret)
-        members += hidden_inputs_file(scratch) + key_file(scratch)
+        key = key_file(scratch)
+        members += hidden_inputs_file(scratch, key[0][1]) + key
         names = [n for n, _ in members]
         if len(set(names)) != len(names) or set(names) & set(_SCRIPTS):
             raise ValueError(f"kit_root: two bundle files would share a path: {sorted(names)}")
@@ -515,11 +524,11 @@ def hideable(paths) -> list[Path]:
 def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
            timing: dict | None = None, staff: dict | None = None) -> SubmissionResult:
     from . import canary
-    from .config import load_config
-    from .grade import grade_submission
+    from .config import configuration, load_config
+    from .grade import budget_of, grade_submission
     from .sandbox import ResourceLimits, Sandbox
     from .submission import SubmissionError, load_submission
-    from .hidden.inputs import HiddenInputs, build_hidden_inputs
+    from .hidden.inputs import build_hidden_inputs
 
     timing = timing if timing is not None else {}
     staff = staff if staff is not None else {}
@@ -545,8 +554,11 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
                   slowness=round(slowness, 3), cpu_share=round(share, 3), wall_factor=round(wall_factor, 2),
                   time_scale=round(config.time_scale * scale, 4))
     # The same inputs with this container's limits (the checks read them from config.time_scale).
-    hidden = HiddenInputs(dataclasses.replace(config, time_scale=config.time_scale * scale), None, hidden.prepared)
-    limits = ResourceLimits(clock="cpu", wall_factor=wall_factor)
+    # (The draws made in advance, the key's, stay: the scenes do not depend on time_scale.)
+    hidden = dataclasses.replace(hidden, config=dataclasses.replace(config, time_scale=config.time_scale * scale),
+                                 scenes=None)
+    limits = ResourceLimits(clock="cpu", wall_factor=wall_factor, cpu_share=share)
+    timing["session_budget"] = round(budget_of(hidden, limits), 1)  # wall-clock s, grown by 1 / share
     # All of root: the grader, the results, Gradescope's submission metadata, the answer key.
     with Sandbox(source, hidden=hideable([root, config.source, config.official_dir()]), limits=limits) as box:
         key = source / KEY_NAME
@@ -560,7 +572,10 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
             return SubmissionResult.failed(BROKEN, isolation=box.isolation.as_dict())
         timing["canary_seconds"] = round(time.monotonic() - t, 3)
         staff["canary"] = {"passed": True, "score": report.score, "max_score": report.max_score}
-        return grade_submission(path, sandbox=box, hidden_inputs=hidden)
+        result = grade_submission(path, sandbox=box, hidden_inputs=hidden)
+        # How it was graded (the bundle's settings; the submission's draw as a digest only).
+        return dataclasses.replace(result, configuration=configuration(
+            config, isolation=box.isolation.level, draw=(result.configuration or {}).get("draw")))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -2,7 +2,9 @@
 submission whose every function hangs, in a folder laid out like /autograder, beside the answer key
 alone at full speed, in one run.  Target: the all-hang submission under 120 s at 0.5 vCPU.
 Each row shows the limits' clock (cpu on Gradescope), the measured CPU share, the wall-clock
-backstop's multiple and the seconds the canary (the bundled answer key) took before grading.
+backstop's multiple of a call ("backstop"), the session's wall-clock budget in seconds ("session",
+grown by 1 / share: ``autograder.grade.budget_of``) and the seconds the canary (the bundled answer
+key) took before grading.
 
     python benchmarks/channels.py [--vcpu 0.5] [--keep DIR]
 
@@ -113,13 +115,14 @@ def main(argv=None) -> int:
         rows.append(("answer key", f"{args.vcpu} vCPU", run(bundle, key, work / "key-half", prefix)))
         rows.append(("every function hangs", f"{args.vcpu} vCPU", run(bundle, hang, work / "hang-half", prefix)))
     print(f"{'submission':22s} {'CPU':>10s} {'seconds':>8s} {'score':>6s} {'tests':>6s} {'slowness':>9s} {'scale':>6s} "
-          f"{'clock':>5s} {'share':>5s} {'backstop':>8s} {'canary':>6s}  inputs")
+          f"{'clock':>5s} {'share':>5s} {'backstop':>8s} {'session':>7s} {'canary':>6s}  inputs")
     nan = float("nan")
     for name, cpu, r in rows:
         tm = r["timing"]
         print(f"{name:22s} {cpu:>10s} {r['seconds']:8.1f} {r['score']:6g} {r['tests']:6d} "
               f"{tm.get('slowness', nan):9.2f} {tm.get('time_scale', nan):6.3f} {tm.get('clock', 'wall'):>5s} "
-              f"{tm.get('cpu_share', nan):5.2f} {tm.get('wall_factor', nan):8.2f} {tm.get('canary_seconds', nan):6.1f}"
+              f"{tm.get('cpu_share', nan):5.2f} {tm.get('wall_factor', nan):8.2f} {tm.get('session_budget', nan):7.0f} "
+              f"{tm.get('canary_seconds', nan):6.1f}"
               f"  {tm.get('hidden_inputs')}" + (f"  FAILED: {r['failure']}" if r["failure"] else ""))
     hang_seconds = rows[-1][2]["seconds"]
     print(f"target: every function hangs under 120 s at {args.vcpu} vCPU: {'met' if hang_seconds < 120 else 'MISSED'} "

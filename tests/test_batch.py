@@ -16,6 +16,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -139,8 +140,23 @@ def test_sigkill_mid_batch_then_resume_regrades_the_one_in_flight(tmp_path, conf
     assert proc.returncode == -signal.SIGKILL
     assert not (out / "b_transposed" / "grading.json").exists()
     assert inflight(out) == {"b_transposed"}
-
-    records = grade_batch(subs, out, config=load_config(config_file), progress=False, limits=LIMITS)
+    # The killed grader's hidden inputs and sandbox scratch are left behind (nobody removed them)...
+    left = {p.name.split("-")[1] for p in Path(tempfile.gettempdir()).glob(f"hw4-*-{proc.pid}-*")}
+    assert {"hidden", "sandbox"} <= left, left
+    live = subprocess.Popen([sys.executable, "-c", LIVE_GRADER], stdout=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONPATH": str(KIT_ROOT)})
+    live_folder = Path(live.stdout.readline().strip() or "no-folder")
+    try:
+        assert live_folder.name.startswith(f"hw4-hidden-{live.pid}-"), live_folder
+        records = grade_batch(subs, out, config=load_config(config_file), progress=False, limits=LIMITS)
+        # ... until the next batch swept them; a live grader's folder stays.
+        assert not list(Path(tempfile.gettempdir()).glob(f"hw4-*-{proc.pid}-*"))
+        assert live_folder.is_dir() and (live_folder / "hidden-inputs.pickle").is_file()
+    finally:
+        live.kill()
+        live.wait()
+        if live_folder.name.startswith("hw4-hidden-"):
+            shutil.rmtree(live_folder, ignore_errors=True)
     by_name = {r.name: r for r in records}
     assert by_name["a_key"].skipped and not by_name["b_transposed"].skipped and not by_name["c_key"].skipped
     assert [by_name[n].score for n in ("a_key", "b_transposed", "c_key")] == [FULL, TRANSPOSED_SCORE, FULL]
@@ -148,6 +164,17 @@ def test_sigkill_mid_batch_then_resume_regrades_the_one_in_flight(tmp_path, conf
     rows = gradebook(out)
     assert sorted(r[0] for r in rows) == ["a_key", "b_transposed", "c_key"]  # nothing lost, no duplicate
     assert inflight(out) == set()
+
+
+# A grader that is alive: it made its hidden-inputs folder, says where, and waits.
+LIVE_GRADER = textwrap.dedent('''
+    import sys, time
+    from autograder.sandbox import leftovers
+    folder, fd = leftovers.owned_folder("hw4-hidden-")
+    (folder / "hidden-inputs.pickle").write_bytes(b"")
+    print(folder, flush=True)
+    time.sleep(600)
+''')
 
 
 DRIVER = textwrap.dedent('''

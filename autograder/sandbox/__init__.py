@@ -52,13 +52,12 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 from core.shipping import NEVER_TO_STUDENTS, SANDBOX_PACKAGES
 
-from . import levels
+from . import leftovers, levels
 from .deny import SANDBOX_GID
 from .model import LEVELS, STATUSES, WEAK_LEVELS, CallOutcome, Isolation, IsolationRefused, ResourceLimits, SessionInfo
 from .script import MPL_CACHE, Runtime
@@ -118,11 +117,15 @@ class Sandbox:
         self.kit_root = Path(kit_root).resolve() if kit_root else Path(__file__).resolve().parents[2]
         self.limits = limits
         self._uid_fd: int | None = None
+        self._base_fd: int | None = None
         self._owner = True
         self.runtime: Runtime | None = None
-        self._base = Path(tempfile.mkdtemp(prefix="hw4-sandbox-"))
+        # Every channel makes its Sandbox before grading: the time to remove what graders killed
+        # with SIGKILL left behind (hidden inputs, answer keys, scratch; leftovers.py).
+        leftovers.sweep()
+        # Traversable, not listable: the lib folder must be reachable by the sandbox's uid.
+        self._base, self._base_fd = leftovers.owned_folder("hw4-sandbox-", mode=0o711)
         try:
-            os.chmod(self._base, 0o711)  # traversable, not listable: the lib folder must be reachable
             lib = self._base / "lib"
             _build_lib(lib, self.kit_root, packages)
             hidden_paths = _hidden_paths(self.kit_root, hidden)
@@ -152,6 +155,7 @@ class Sandbox:
         box.kit_root = Path(spec["kit_root"])
         box.limits = ResourceLimits(**spec["limits"])
         box._uid_fd = None
+        box._base_fd = None
         box._owner = False
         box._base = Path(spec["base"])
         box.runtime = Runtime(spec["level"], spec["uid"], Path(spec["lib"]), tuple(Path(p) for p in spec["hidden"]),
@@ -166,7 +170,8 @@ class Sandbox:
         """Remove the sandbox's files and free its uid (when this process made it)."""
         if not self._owner:
             return
-        shutil.rmtree(self._base, ignore_errors=True)
+        leftovers.release(self._base, self._base_fd)
+        self._base_fd = None
         release_uid(self.runtime.uid if self.runtime else None, self._uid_fd)
         self._uid_fd = None
 

@@ -40,7 +40,10 @@ class ResourceLimits:
     does not stop a call that is computing, while a call that waits (sleep, a blocked read) is
     still killed by the grader at ``seconds * wall_factor + grace`` wall-clock seconds after it
     started.  wall_factor: that backstop's multiple (cpu clock only; at least 1; a machine that
-    gives the code half a CPU needs more than 2).
+    gives the code half a CPU needs more than 2).  cpu_share: the measured share of one CPU the
+    code gets here (cpu clock only; in (0, 1]; 0.5 at 0.5 vCPU): a call's CPU seconds take
+    1 / cpu_share wall-clock seconds, so the session's wall-clock budget grows by as much
+    (``autograder.grade.budget_of``).
     """
 
     memory_bytes: int = 3 * 2**30
@@ -53,6 +56,7 @@ class ResourceLimits:
     grace: float = 2.0
     clock: str = "wall"
     wall_factor: float = 3.0
+    cpu_share: float = 1.0
 
     def __post_init__(self):
         if self.clock not in CLOCKS:
@@ -60,6 +64,15 @@ class ResourceLimits:
         wf = self.wall_factor
         if isinstance(wf, bool) or not isinstance(wf, (int, float)) or not 1 <= wf <= 1000:
             raise ValueError(f"wall_factor: expected a number of at least 1 (and at most 1000), got {wf!r}")
+        share = self.cpu_share
+        if isinstance(share, bool) or not isinstance(share, (int, float)) or not 0.01 <= share <= 1:
+            raise ValueError(f"cpu_share: expected a share of one CPU in [0.01, 1], got {share!r}")
+
+    @property
+    def wall_per_cpu(self) -> float:
+        """Wall-clock seconds one CPU second of a call may take here: 1 / cpu_share under the CPU
+        clock, 1 under the wall clock (its limits are wall-clock seconds already)."""
+        return 1.0 / self.cpu_share if self.clock == "cpu" else 1.0
 
 
 @dataclass(frozen=True)
