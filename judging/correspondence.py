@@ -13,11 +13,13 @@ import numpy as np
 from core.geometry import project
 
 from .mistakes import points_behind_cameras, points_xy_swapped
-from .verdict import Verdict, read_array, read_number, share_score
+from .verdict import Malformed, Verdict, read_array, read_number, share_score
 
-__all__ = ["FLOOR", "GOAL", "matches", "points3d", "read_match", "read_points", "right_2d", "right_3d", "tolerance"]
+__all__ = ["FLOOR", "GOAL", "PTS2_SHARE", "matches", "points3d", "pts2_reported", "read_match", "read_points",
+           "read_points_pts2", "right_2d", "right_3d", "tolerance"]
 
 GOAL, FLOOR = 0.7, 0.2
+PTS2_SHARE = 0.9   # share of the points whose w must reproject onto the pts1 and pts2 returned with it
 _M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
 
 
@@ -38,6 +40,34 @@ def read_points(value, n: int) -> np.ndarray:
     if isinstance(value, (tuple, list)) and len(value) in (2, 3):
         value = value[0]
     return read_array(value, (n, 3), "the 3D points")
+
+
+def read_points_pts2(value, n: int) -> tuple[np.ndarray, object]:
+    """(w (n, 3), pts2 as returned or None) from compute3D_pts's result ((w, pts2), or w alone); or Malformed."""
+    pts2 = value[1] if isinstance(value, (tuple, list)) and len(value) in (2, 3) else None
+    return read_points(value, n), pts2
+
+
+def pts2_reported(pts2, w, C1, pts1, C2, tol: float) -> Verdict:
+    """pts2 (N, 2), returned with w (N, 3), are the matches w was triangulated from: w reprojects
+    within ``tol`` px of pts1 (N, 2) through C1 and of pts2 through C2 (:func:`right_3d`) for a share
+    >= PTS2_SHARE of the points (a match off its epipolar line leaves a residual in both images).
+    Names points_xy_swapped when pts2 holds (y, x)."""
+    what = "pts2 are the matches w was triangulated from"
+    w = np.asarray(w, float)
+    try:
+        pts2 = read_array(pts2, (len(w), 2), "pts2")
+    except Malformed as exc:
+        return Verdict.failed(what, str(exc))
+    right = right_3d(w, C1, C2, pts1, pts2, tol)
+    share = float(right.mean()) if len(right) else 0.0
+    ok = share >= PTS2_SHARE
+    swapped = None
+    if not ok and np.all(np.isfinite(w)):
+        with np.errstate(all="ignore"):
+            swapped = points_xy_swapped(np.nan_to_num(pts2, nan=-1e9), project(C2, w), tol)
+    return Verdict.of(what, ok, f"{int(right.sum())} of {len(right)} of your points reproject within {tol:g} px "
+                                f"of pts1 and of your pts2", f">= {PTS2_SHARE:.0%}", [swapped])
 
 
 def _goal(share: float, ref_share: float, tol: float, n_right: int, n: int, what: str, mistakes=()) -> Verdict:

@@ -2,7 +2,8 @@
 
 Two rules: on data built to expose threshold mistakes (exact detections above Thres, clearly
 wrong ones at or below it) every keypoint is right; on an ordinary noisy sequence the mean
-distance from the truth is close to a reference reconstruction's.
+distance from the truth is close to a reference reconstruction's.  And err must be the total
+squared reprojection error of the returned P over the detections used (:func:`err_reported`).
 """
 
 from __future__ import annotations
@@ -11,10 +12,13 @@ import numpy as np
 
 from core.geometry import project
 
-from .mistakes import threshold_mistakes
-from .verdict import Verdict, fmt, read_array, read_parts
+from .mistakes import error_not_sum_of_squares, threshold_mistakes
+from .verdict import Malformed, Verdict, fmt, read_array, read_number, read_parts
 
-__all__ = ["read_P", "reprojects_near", "sequence", "sequence_goal", "threshold_probe"]
+__all__ = ["ERR_RTOL", "err_bounds", "err_reported", "read_P", "read_P_err", "reprojects_near", "sequence",
+           "sequence_goal", "threshold_probe"]
+
+ERR_RTOL = 1e-3   # err within this share of the bounds recomputed from P (as bundle adjustment's o1, o2)
 
 
 def read_P(value, n: int) -> np.ndarray:
@@ -22,6 +26,66 @@ def read_P(value, n: int) -> np.ndarray:
     if isinstance(value, (tuple, list)):
         value = read_parts(value, 1, "MultiviewReconstruction")[0]
     return read_array(value, (n, 3), "P")
+
+
+def read_P_err(value, n: int) -> tuple[np.ndarray, object]:
+    """(P (n, 3), err as returned, or None when P came alone) from MultiviewReconstruction's result, or Malformed."""
+    if isinstance(value, (tuple, list)):
+        P = read_parts(value, 1, "MultiviewReconstruction")[0]
+        return read_array(P, (n, 3), "P"), (value[1] if len(value) > 1 else None)
+    return read_array(value, (n, 3), "P"), None
+
+
+def _used(P, Cs, pts, Thres) -> tuple[np.ndarray, np.ndarray]:
+    """(used (N, V) bool, residuals (N, V, 2) of P's projections from the detections).
+
+    A detection is used when it is above Thres, its keypoint has two or more such detections and
+    its point in P is finite (a keypoint left NaN reports no error)."""
+    P = np.asarray(P, float)
+    xy = np.stack([np.asarray(p, float)[:, :2] for p in pts], axis=1)                  # (N, V, 2)
+    used = np.stack([np.asarray(p, float)[:, 2] > Thres for p in pts], axis=1)         # (N, V)
+    used &= (used.sum(axis=1) >= 2)[:, None] & np.all(np.isfinite(P), axis=1)[:, None]
+    with np.errstate(all="ignore"):
+        r = np.stack([xy[:, v] - project(Cs[v], P) for v in range(len(pts))], axis=1)
+    return used, r
+
+
+def err_bounds(P, Cs, pts, Thres) -> tuple[float, float]:
+    """(lowest, highest) total squared reprojection error (pixels^2) of P (N, 3) over the detections
+    used (see ``_used``; pts: three (N, 3) arrays [x, y, confidence], Cs: three (3, 4) cameras):
+    each keypoint from its two best-fitting used views (a method that uses two of three) to all of
+    them; inf when a used detection's projection is not finite."""
+    used, r = _used(P, Cs, pts, Thres)
+    with np.errstate(all="ignore"):
+        sq = np.sum(r ** 2, axis=2)
+    if not np.all(np.isfinite(sq[used])):
+        return float("inf"), float("inf")
+    rows = used.any(axis=1)
+    two = np.sort(np.where(used, sq, np.inf)[rows], axis=1)[:, :2]
+    return float(np.sum(two)), float(np.sum(sq[used]))
+
+
+def err_reported(err, P, Cs, pts, Thres) -> Verdict:
+    """err is the total squared reprojection error of the returned P (N, 3) over the detections used
+    (:func:`err_bounds`, relative ERR_RTOL plus 1e-6 px^2 a keypoint); names error_not_sum_of_squares."""
+    what = "err is the total squared reprojection error of P over the detections used"
+    if err is None:
+        return Verdict.of(what, False, "MultiviewReconstruction returned P alone", "(P, err)")
+    try:
+        e = read_number(err, "err")
+    except Malformed as exc:
+        return Verdict.failed(what, str(exc))
+    low, high = err_bounds(P, Cs, pts, Thres)
+    if not np.isfinite(high):
+        return Verdict.of(what, False, "P does not project to finite pixels", "")
+    slack = 1e-6 * max(len(np.asarray(P)), 1)
+    ok = bool(np.isfinite(e) and low * (1 - ERR_RTOL) - slack <= e <= high * (1 + ERR_RTOL) + slack)
+    goal = fmt(high) if np.isclose(low, high, rtol=ERR_RTOL) else f"{fmt(low)} to {fmt(high)}"
+    found = []
+    if not ok:
+        used, r = _used(P, Cs, pts, Thres)
+        found.append(error_not_sum_of_squares(e, r[used], np.zeros((0, 2)), rtol=ERR_RTOL))
+    return Verdict.of(what, ok, f"err = {fmt(e)} px^2", f"{goal} px^2 from your P", found)
 
 
 def _distances(P, P_true) -> np.ndarray:

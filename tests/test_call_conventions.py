@@ -7,6 +7,9 @@
   that slices with its coordinates and one that subtracts uint8 windows both get full marks.
 - Another year's findM2(F, pts1, pts2, intrinsics, filename=...) is recognised and called that way.
 - The feedback of a failing call says how it was called (argument kinds, never values).
+- Every returned value is checked against the points the function returned itself: an err that is
+  not P's (MultiviewReconstruction) or a pts2 that is not w's matches (compute3D_pts) loses exactly
+  that check.
 
 In-process runs (``run_here`` on ``LocalStudent``) for speed, and one batch through the sandbox
 with the canary on for the whole path (protocol, submission reading, feedback).
@@ -114,6 +117,51 @@ def test_a_failing_call_says_how_it_was_called(hidden):
     assert q33.score == 0
     text = "\n".join(t.feedback for t in q33.tests)
     assert "called as findM2(F: a 3x3 float64 array" in text and "intrinsics: a dict with K1, K2" in text, text
+
+
+# ------------------------------------------------------------------------ every returned value is checked
+
+
+def _wrapped(source: str, name: str):
+    """The function ``name`` of a corpus wrapper cell, wrapping the answer key's function of that name."""
+    import solutions
+
+    namespace = {name: getattr(solutions, name)}
+    exec(compile(source, f"<{name}>", "exec"), namespace)  # noqa: S102 - the corpus's own cell
+    return namespace[name]
+
+
+def test_an_err_inconsistent_with_P_loses_exactly_the_err_check(hidden):
+    q6 = _questions(hidden, MultiviewReconstruction=_wrapped(variants.WRAP_MULTIVIEW_MEAN_ERR,
+                                                             "MultiviewReconstruction"))["Q6"]
+    lost = [t for t in q6.tests if t.score < t.max_score]
+    assert [t.name for t in lost] == ["err is the total squared reprojection error of P over the detections used"], \
+        [(t.name, t.feedback) for t in q6.tests]
+    assert lost[0].score == 0 and "Likely mistake: error not the sum of squares" in lost[0].feedback, lost[0].feedback
+    assert "from your P" in lost[0].feedback
+
+
+def test_pts2_inconsistent_with_w_loses_exactly_the_pts2_check(hidden):
+    q42 = _questions(hidden, compute3D_pts=_wrapped(variants.WRAP_COMPUTE3D_RETURNS_PTS1, "compute3D_pts"))["Q4.2"]
+    lost = [t for t in q42.tests if t.score < t.max_score]
+    assert [t.name for t in lost] == ["pts2 are the matches w was triangulated from"], \
+        [(t.name, t.feedback) for t in q42.tests]
+    assert "of pts1 and of your pts2 (goal >= 90%)" in lost[0].feedback, lost[0].feedback
+
+
+def test_the_reference_err_passes_with_two_or_three_views(hidden):
+    from judging import multiview as jm
+    from solutions import MultiviewReconstruction
+
+    step = hidden.prepared["multiview"].sequence[0]
+    P, err = MultiviewReconstruction(step.C[0], step.pts[0], step.C[1], step.pts[1], step.C[2], step.pts[2],
+                                     step.Thres)
+    low, high = jm.err_bounds(P, step.C, step.pts, step.Thres)
+    assert 0 < low <= err <= high * (1 + 1e-9)
+    assert jm.err_reported(err, P, step.C, step.pts, step.Thres).passed
+    assert jm.err_reported(low, P, step.C, step.pts, step.Thres).passed       # two best views of each keypoint
+    assert not jm.err_reported(err / 10, P, step.C, step.pts, step.Thres).passed
+    assert not jm.err_reported(None, P, step.C, step.pts, step.Thres).passed  # P alone: no err to check
 
 
 def test_numpy2_removals_get_a_hint():

@@ -6,7 +6,7 @@ matcher's share on the same points.  Full marks at 70 % of the reference's share
 20 % of it, linear between (the handout asks for the easy points, not every point).
 
 Q4.2: the 3D points must reproject within the same few pixels of the point and of its true
-match.  Graded through the student's ``compute3D_pts(im1, im2, F, x1, y1, C1, C2)`` when it
+match; the pts2 returned with them must be the matches they were triangulated from.  Graded through the student's ``compute3D_pts(im1, im2, F, x1, y1, C1, C2)`` when it
 accepts the reference signature and through their ``epipolarCorrespondence`` + ``triangulate``
 pipeline otherwise (the matches of Q4.1, not asked for again); the better of the two counts, and
 the feedback says which was used.
@@ -205,11 +205,22 @@ def _five_argument_points(student, c, n):
     return None, "", problem
 
 
-@pytest.mark.points(5, question="Q4.2", name="3D points of the temple")
-def test_3D_points_of_the_temple(student, correspondence, matched, signatures, score):
+@dataclass(frozen=True)
+class TemplePoints:
+    """Q4.2's result: the verdict of the 3D points counted (None: no route gave points), the feedback
+    lines saying how they were got, and the verdict of the pts2 returned with them (None: none was)."""
+
+    points: object
+    lines: tuple[str, ...]
+    pts2: object = None
+
+
+@pytest.fixture(scope="session")
+def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
+    """The student's 3D points of Q4.2's scene, through compute3D_pts or their matcher and triangulate."""
     c = correspondence.points_case
     n = len(c.pts1)
-    direct_v, direct_problem, direct_how = None, "", ""
+    direct_v, direct_problem, direct_how, direct_pts2 = None, "", "", None
     direct_sig = "compute3D_pts(im1, im2, F, x1, y1, C1, C2)"
     if five_arguments(signatures("compute3D_pts")):
         direct_sig = "compute3D_pts(temple_pts1, intrinsics, F, im1, im2) as the course calls it"
@@ -222,30 +233,46 @@ def test_3D_points_of_the_temple(student, correspondence, matched, signatures, s
         args = (image(c.im1), image(c.im2), c.F, xy[:, :1].copy(), xy[:, 1:].copy(), c.C1, c.C2)
         o = student.each("compute3D_pts", [args], seconds=SECONDS[_MATCH] * n + SECONDS["compute3D_pts.triangulate"])[0]
         try:
-            w = read_returned("compute3D_pts", o, lambda v: jc.read_points(v, n), args)
+            w, pts2 = read_returned("compute3D_pts", o, lambda v: jc.read_points_pts2(v, n), args)
             v = jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d)
         except Malformed as exc:
             direct_problem = direct_problem or str(exc)
             continue
         if direct_v is None or v.fraction > direct_v.fraction:
             direct_v, direct_how = v, how
+            direct_pts2 = None if pts2 is None else jc.pts2_reported(pts2, w, c.C1, c.pts1, c.C2, c.tol)
         if v.passed:
             break
     w, pipe_problem = _pipeline(student, c, matched[c])
     pipe_v = None if w is None else jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d)
-    lines = []
     if direct_v is not None and (pipe_v is None or direct_v.fraction >= pipe_v.fraction):
-        v = direct_v
-        lines.append(f"graded through your {direct_sig}, called with {direct_how}")
-    elif pipe_v is not None:
-        v = pipe_v
+        return TemplePoints(direct_v, (f"graded through your {direct_sig}, called with {direct_how}",), direct_pts2)
+    if pipe_v is not None:
         why = f" (compute3D_pts: {direct_problem})" if direct_problem else \
             " (it placed more points right than your compute3D_pts)"
-        lines.append("graded through your epipolarCorrespondence and triangulate" + why)
-    else:
-        lines.append(f"compute3D_pts: {direct_problem or 'no result'}")
-        lines.append(f"epipolarCorrespondence + triangulate: {pipe_problem or 'no result'}")
+        return TemplePoints(pipe_v, ("graded through your epipolarCorrespondence and triangulate" + why,))
+    return TemplePoints(None, (f"compute3D_pts: {direct_problem or 'no result'}",
+                               f"epipolarCorrespondence + triangulate: {pipe_problem or 'no result'}"))
+
+
+@pytest.mark.points(4, question="Q4.2", name="3D points of the temple")
+def test_3D_points_of_the_temple(correspondence, temple_points, score):
+    c = correspondence.points_case
+    v, lines = temple_points.points, list(temple_points.lines)
+    if v is None:
         score.grade(0.0, lines)
     lines.append(f"{c.label}: {v.measured} of the point and its true match in both images "
                  f"(full marks from {v.goal[3:]})")
     score.grade(v.fraction, lines, v.mistakes)
+
+
+@pytest.mark.points(1, question="Q4.2", name="pts2 are the matches w was triangulated from")
+def test_pts2_are_the_matches_of_w(correspondence, temple_points, score):
+    """Judged when compute3D_pts returned (w, pts2) and its points counted; nothing to contradict otherwise."""
+    if temple_points.points is None:
+        score.grade(0.0, list(temple_points.lines))
+    v = temple_points.pts2
+    if v is None:
+        score.grade(1.0, ["no pts2 was returned with the points that counted: nothing to check"])
+        return
+    score.grade(v.fraction, [f"{correspondence.points_case.label}: {v.sentence}"], v.mistakes)

@@ -6,6 +6,8 @@
 - Threshold probes: exact detections above ``Thres`` and clearly wrong ones at or below it, built
   so that using a detection at exactly Thres (``>=``), ignoring the threshold, or leaving out a
   detection just above it each puts some keypoints off.  Every keypoint must come out right.
+- ``err`` must be the total squared reprojection error of the returned P over the detections
+  used (on the sequence's steps; a method using two of three confident views is welcome).
 - ``plot_3d_keypoint_video`` must run on a (T, 12, 3) sequence, and its figure (returned, or
   opened with pyplot) must show at least 90 % of the keypoints (axes may be swapped or flipped).
 """
@@ -36,47 +38,60 @@ def multiview(hidden):
 
 @pytest.fixture(scope="session")
 def reconstructed(student, multiview) -> dict:
-    """The student's P (12, 3) (or the Malformed) of every step, sequence and probes: one request."""
+    """The student's (P (12, 3), err as returned) (or the Malformed) of every step, sequence and probes:
+    one request."""
     steps = (*multiview.sequence, *multiview.probes)
     inputs = [(s.C[0], s.pts[0], s.C[1], s.pts[1], s.C[2], s.pts[2], s.Thres) for s in steps]
     outcomes = student.each("MultiviewReconstruction", inputs, seconds=SECONDS["MultiviewReconstruction"])
     out = {}
     for step, args, o in zip(steps, inputs, outcomes):
         try:
-            out[step] = read_returned("MultiviewReconstruction", o, lambda v, n=len(step.P_true): jm.read_P(v, n), args)
+            out[step] = read_returned("MultiviewReconstruction", o, lambda v, n=len(step.P_true): jm.read_P_err(v, n),
+                                     args)
         except Malformed as exc:
             out[step] = exc
     return out
 
 
-@pytest.mark.points(9, question="Q6", name="3D keypoints of a hidden car sequence")
-def test_3D_keypoints_of_a_car_sequence(multiview, reconstructed, score):
-    right, lines = 0, []
-    for step in multiview.sequence:
-        P = reconstructed[step]
-        if isinstance(P, Malformed):
-            lines.append(f"{step.label}: {P}")
+def _grade_steps(steps, reconstructed, judge, line, score) -> None:
+    """Grade ``steps`` by the share whose ``judge(step, P, err)`` Verdict passed; one feedback line
+    per step, ``line(step, verdict)``, or the failed call's sentence; the verdicts' mistakes named."""
+    right, lines, mistakes = 0, [], []
+    for step in steps:
+        got = reconstructed[step]
+        if isinstance(got, Malformed):
+            lines.append(f"{step.label}: {got}")
             continue
-        v = jm.sequence(P, step.P_true, step.judged, step.goal)
+        v = judge(step, *got)
         right += v.passed
-        lines.append(f"{step.label}: {v.measured} m of your keypoints from the true ones (goal {v.goal} m)")
-    score.grade(right / len(multiview.sequence), lines)
+        mistakes += v.mistakes
+        lines.append(line(step, v))
+    score.grade(right / len(steps), lines, mistakes)
+
+
+@pytest.mark.points(8, question="Q6", name="3D keypoints of a hidden car sequence")
+def test_3D_keypoints_of_a_car_sequence(multiview, reconstructed, score):
+    _grade_steps(multiview.sequence, reconstructed,
+                 lambda step, P, err: jm.sequence(P, step.P_true, step.judged, step.goal),
+                 lambda step, v: f"{step.label}: {v.measured} m of your keypoints from the true ones (goal {v.goal} m)",
+                 score)
 
 
 @pytest.mark.points(4, question="Q6", name="only detections above Thres are used")
 def test_only_detections_above_Thres_are_used(multiview, reconstructed, score):
-    right, lines, mistakes = 0, [], []
-    for step in multiview.probes:
-        P = reconstructed[step]
-        if isinstance(P, Malformed):
-            lines.append(f"{step.label}: {P}")
-            continue
-        v = jm.threshold_probe(P, step.P_true, step.pts[:, :, 2].T, step.Thres, step.goal)
-        right += v.passed
-        mistakes += v.mistakes
-        lines.append(f"{step.label} (Thres = {step.Thres}): {v.measured.split(' within')[0]} keypoints right"
-                     + ("" if v.passed else " (goal: all)"))
-    score.grade(right / len(multiview.probes), lines, mistakes)
+    _grade_steps(multiview.probes, reconstructed,
+                 lambda step, P, err: jm.threshold_probe(P, step.P_true, step.pts[:, :, 2].T, step.Thres, step.goal),
+                 lambda step, v: (f"{step.label} (Thres = {step.Thres}): {v.measured.split(' within')[0]} keypoints "
+                                  "right" + ("" if v.passed else " (goal: all)")),
+                 score)
+
+
+@pytest.mark.points(1, question="Q6", name="err is the total squared reprojection error of P over the detections used")
+def test_err_is_the_reprojection_error_of_P(multiview, reconstructed, score):
+    _grade_steps(multiview.sequence, reconstructed,
+                 lambda step, P, err: jm.err_reported(err, P, step.C, step.pts, step.Thres),
+                 lambda step, v: f"{step.label}: {v.measured}" + ("" if v.passed else f" (goal {v.goal})"),
+                 score)
 
 
 def drawn_share(drawn: np.ndarray, video: np.ndarray) -> float:

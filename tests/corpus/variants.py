@@ -438,3 +438,33 @@ def compute3D_pts(temple_pts1, intrinsics, F, im1, im2):
     M2, C2, P = findM2(F, pts1.astype(float), pts2, K1, K2)
     return P
 '''
+
+# --------------------------------------------------------------------------- returned values checked (issue 9)
+# Every value a function returns is judged against the points it returned itself: these return
+# right points with one inconsistent companion value, and must lose exactly the check of that value.
+WRAP_MULTIVIEW_MEAN_ERR = '''\
+import numpy as np
+
+_key_MultiviewReconstruction = MultiviewReconstruction
+
+
+def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
+    """The right P, but err the mean over the detections used instead of their total."""
+    P, err = _key_MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres)
+    confident = np.stack([np.asarray(p)[:, 2] > Thres for p in (pts1, pts2, pts3)], axis=1)
+    used = confident[confident.sum(axis=1) >= 2].sum()
+    return P, err / max(int(used), 1)
+'''
+
+# compute3D_pts's right w, but the points of image 1 returned as pts2 (the wrong array returned).
+WRAP_COMPUTE3D_RETURNS_PTS1 = '''\
+import numpy as np
+
+_key_compute3D_pts = compute3D_pts
+
+
+def compute3D_pts(im1, im2, F, x1, y1, C1, C2):
+    """The right points w, but returns the coordinates of image 1 as the matches pts2."""
+    w, pts2 = _key_compute3D_pts(im1, im2, F, x1, y1, C1, C2)
+    return w, np.column_stack([np.ravel(x1), np.ravel(y1)]).astype(float)
+'''
