@@ -448,7 +448,8 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         if iso is None and getattr(local, "box", None) is not None:
             iso = local.box.isolation.as_dict()
         level = iso.get("level") if iso else None
-        result = replace(result, configuration={**record, "isolation": level}, isolation=iso)
+        draw = (result.configuration or {}).get("draw")  # the digest of the submission's hidden draw
+        result = replace(result, configuration={**record, "isolation": level, "draw": draw}, isolation=iso)
         folder = out / name
         with write_lock:
             if cancel.is_set():

@@ -3,6 +3,9 @@
 The hidden inputs (scene variants, their seeds, noise, image sizes) are made in the grader from
 a *secret*: every seed is derived from it, so two courses with two secrets test on different
 scenes, and a student who knows the kit (it is public) still cannot regenerate the scenes.  The
+hidden scenes are drawn per submission, from the secret and a digest of the submission's code
+(``autograder.hidden.inputs.code_salt``): a regrade gets the same scenes, another submission
+others; results name the draw only by ``GradingConfig.draw_digest``.  The
 secret and the other settings come, strongest first, from
 
 1. an explicit ``load_config(path)`` / ``--config FILE``;
@@ -124,6 +127,14 @@ class GradingConfig:
         """The seed of the hidden input ``label`` (a 63-bit integer derived from the secret)."""
         digest = hashlib.sha256(f"{self.secret}\x00{label}".encode()).digest()
         return int.from_bytes(digest[:8], "big") >> 1
+
+    def draw_digest(self, salt: str) -> str:
+        """A short digest naming the hidden draw of ``salt`` (a submission's code digest) under this
+        secret: equal digests, equal scenes.  Results carry it instead of anything of the scenes;
+        it reveals no seed (the secret is part of it, and one digest cannot be turned back)."""
+        if not isinstance(salt, str) or not salt:
+            raise ValueError(f"salt: expected a non-empty str, got {salt!r}")
+        return hashlib.sha256(f"hw4-draw\x00{self.secret}\x00{salt}".encode()).hexdigest()[:12]
 
     def official_dir(self) -> Path | None:
         """The official data folder when one was asked for and it holds the temple files, else None."""
@@ -283,14 +294,15 @@ def _data_digest(folder: Path) -> str:
 
 
 def configuration(config: GradingConfig, *, extra_tests=(), isolation: str | None = None,
-                  tests: dict | None = None) -> dict:
+                  tests: dict | None = None, draw: str | None = None) -> dict:
     """What a result records about how it was graded (plain JSON; the secret only as a fingerprint).
 
     Keys: ``grader_version``, ``kit_version``, ``secret_fingerprint``, ``dev_secret``, ``data``
     (``default_data``: bool, ``official_data``: path or None, ``official_digest``), ``settings``
     (every other setting), ``tests`` (``tests_fingerprint``; pass ``tests`` to reuse one),
-    ``isolation`` (the sandbox level, or None before a sandbox ran), ``key``
-    (``configuration_key`` of the rest).
+    ``isolation`` (the sandbox level, or None before a sandbox ran), ``draw`` (only when given:
+    ``GradingConfig.draw_digest`` of the submission's hidden draw, never the scenes), ``key``
+    (``configuration_key`` of the rest; the draw is not part of it, as every submission has its own).
     """
     official = config.official_dir()
     settings = config.to_dict()
@@ -308,6 +320,8 @@ def configuration(config: GradingConfig, *, extra_tests=(), isolation: str | Non
         "tests": tests if tests is not None else tests_fingerprint(extra_tests),
         "isolation": isolation,
     }
+    if draw is not None:
+        record["draw"] = draw
     record["key"] = configuration_key(record)
     return record
 

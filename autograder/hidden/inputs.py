@@ -1,14 +1,26 @@
-"""The hidden inputs: made once per batch from the grader's secret config, cached for the grading processes.
+"""The hidden inputs: the batch's, made once from the grader's secret config, and each submission's draw.
 
-``build_hidden_inputs(config)`` makes the hidden scenes and every check's prepared inputs and
-reference results.  A batch makes them once and ``save``s them into a folder of the grader's own
-(mode 0700, hidden from the sandbox); each grading run (one ``pytest`` session per submission)
-``load``s them instead of making them again.  The cache is the grader's own data, written and read
-by the grader only, never by the sandbox.
+``build_hidden_inputs(config)`` makes the hidden scenes of the secret and every check's prepared
+inputs and reference results: the *batch's* inputs.  A batch makes them once and ``save``s them
+into a folder of the grader's own (mode 0700, hidden from the sandbox); each grading run (one
+``pytest`` session per submission) ``load``s them instead of making them again.  The cache is the
+grader's own data, written and read by the grader only, never by the sandbox.
+
+Each submission is graded on its own *draw* (``draw(batch, salt)``): hidden temples, cars and
+the checks' random choices seeded from the secret and ``code_salt(submission)``, a digest of the
+code the grader runs, so that a regrade gets the same scenes and another submission other ones
+(scenes collected by one submission are worth nothing to the next).  What does not depend on the
+submission (the default data, the official data and the reference's results on them) is taken
+from the batch's inputs, so a draw costs about a second (two temple renders, the reference on
+them).  ``HiddenInputs.drawn`` may hold draws made in advance (the answer key's, in the
+Gradescope bundle).  ``build_hidden_inputs(config, salt=...)`` is the draw of a salt in one call.
 """
 
 from __future__ import annotations
 
+import ast
+import dataclasses
+import hashlib
 import os
 import pickle
 import stat
@@ -18,10 +30,10 @@ from pathlib import Path
 
 from autograder.config import GradingConfig
 
-from .cases import call_seconds, prepare_all
+from .cases import call_seconds, draw_all, prepare_all
 from .scenes import Scenes, make_scenes
 
-__all__ = ["HiddenInputs", "build_hidden_inputs", "load", "save"]
+__all__ = ["HiddenInputs", "build_hidden_inputs", "code_salt", "draw", "load", "save", "with_draws"]
 
 _FILE = "hidden-inputs.pickle"
 
@@ -29,11 +41,18 @@ _FILE = "hidden-inputs.pickle"
 @dataclass(frozen=True, eq=False)
 class HiddenInputs:
     """The config, the scenes and each concept's prepared inputs (``autograder.hidden.cases``), by
-    concept name ("fundamental", "essential", ...): never leave the grader."""
+    concept name ("fundamental", "essential", ...): never leave the grader.
+
+    draw : None for the batch's inputs (the secret's own scenes), else the short digest
+        (``GradingConfig.draw_digest``) of the submission's draw these are.
+    drawn : draws made in advance, ``{salt: prepared}`` (``with_draws``); ``draw`` uses them.
+    """
 
     config: GradingConfig
     scenes: Scenes | None
     prepared: dict = field(default_factory=dict)
+    draw: str | None = None
+    drawn: dict = field(default_factory=dict)
 
     def call_seconds(self) -> float:
         """The time every check may give student code, added up (for the session's budget)."""
@@ -41,10 +60,71 @@ class HiddenInputs:
 
 
 @lru_cache(maxsize=4)
-def build_hidden_inputs(config: GradingConfig) -> HiddenInputs:
-    """Make (once per config and process) every hidden input and the reference's results on them."""
+def build_hidden_inputs(config: GradingConfig, *, salt: str | None = None) -> HiddenInputs:
+    """Make (once per config, salt and process) every hidden input and the reference's results on them.
+
+    salt : None (default): the batch's inputs, from the secret alone.  A str (``code_salt`` of a
+        submission): that submission's draw (``draw`` of the batch's inputs).
+    """
+    if salt is not None:
+        return draw(build_hidden_inputs(config), salt)
     scenes = make_scenes(config)
     return HiddenInputs(config, scenes, prepare_all(scenes))
+
+
+def draw(batch: HiddenInputs, salt: str) -> HiddenInputs:
+    """The hidden inputs of the submission whose ``code_salt`` is ``salt``, under ``batch``'s config.
+
+    The hidden temples, the cars and every random choice of the checks are drawn from the secret
+    and ``salt``; the default and official data's parts are ``batch``'s.  A draw made in advance
+    (``batch.drawn``) is used as it is.  The result's ``draw`` names it (a short digest).
+
+    Raises
+    ------
+    ValueError
+        When ``salt`` is not a non-empty str or ``batch`` is itself a draw.
+    """
+    if not isinstance(salt, str) or not salt:
+        raise ValueError(f"salt: expected a non-empty str (code_salt of a submission), got {salt!r}")
+    if batch.draw is not None:
+        raise ValueError(f"batch: expected the batch's inputs (draw None), got the draw {batch.draw}")
+    digest = batch.config.draw_digest(salt)
+    if salt in batch.drawn:
+        return HiddenInputs(batch.config, None, batch.drawn[salt], digest)
+    scenes = make_scenes(batch.config, salt=salt, fixed=False)
+    return HiddenInputs(batch.config, scenes, draw_all(scenes, batch.prepared), digest)
+
+
+def with_draws(batch: HiddenInputs, salts) -> HiddenInputs:
+    """``batch`` with the draws of ``salts`` made in advance (in ``drawn``; ``save`` keeps them)."""
+    made = dict(batch.drawn)
+    for salt in salts:
+        if salt not in made:
+            made[salt] = draw(batch, salt).prepared
+    return dataclasses.replace(batch, drawn=made)
+
+
+def code_salt(submission) -> str:
+    """A digest (32 hex digits) of the code the grader runs of ``submission``
+    (``autograder.submission.Submission``): every kept statement of every file read, each as its
+    syntax tree (comments, blank lines and layout do not count), sorted (file names, cell
+    numbers, notebook metadata and the order of files do not count either).  So the same code
+    handed in as a folder, a zip or notebooks rewritten by nbgrader has one salt, and any change
+    to what runs (a function body, a helper, a constant) gives another."""
+    texts = sorted(_normalised(unit.source) for pf in submission.files.values() if pf.readable
+                   for unit in pf.units)
+    h = hashlib.sha256(b"hw4-code-salt\x00")
+    for text in texts:
+        h.update(text.encode("utf-8", "surrogatepass") + b"\x00")
+    return h.hexdigest()[:32]
+
+
+def _normalised(source: str) -> str:
+    # The syntax tree without positions: the same statement whatever its layout or comments.
+    try:
+        return ast.dump(ast.parse(source))
+    except (SyntaxError, ValueError):  # kept statements parse; a stray one still counts as text
+        return "\n".join(line.rstrip() for line in source.strip().splitlines())
 
 
 def save(hidden: HiddenInputs, folder: Path) -> Path:
@@ -56,7 +136,7 @@ def save(hidden: HiddenInputs, folder: Path) -> Path:
     tmp = folder / (_FILE + ".tmp")
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "wb") as fh:
-        pickle.dump(HiddenInputs(hidden.config, None, hidden.prepared), fh, protocol=pickle.HIGHEST_PROTOCOL)
+        pickle.dump(dataclasses.replace(hidden, scenes=None), fh, protocol=pickle.HIGHEST_PROTOCOL)
     os.replace(tmp, path)
     return path
 

@@ -19,7 +19,8 @@ error is the grader's: zero with "internal error" for the student and the traceb
 ``score.record(...)`` lets a test report finished ``TestResult``/``QuestionResult`` objects.
 
 Options used by the grader (``autograder.grade``): ``--hidden-cache`` (the batch's hidden inputs,
-made once), ``--sandbox-spec`` (the grader's sandbox, not probed again), ``--results`` (the
+made once; each submission gets its own draw of them, ``autograder.hidden.inputs.draw``, and its
+result names the draw by a short digest, ``configuration["draw"]``), ``--sandbox-spec`` (the grader's sandbox, not probed again), ``--results`` (the
 ``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget``.
 """
 
@@ -257,7 +258,10 @@ def grading_config(request):
 
 @pytest.fixture(scope="session")
 def hidden(request, grading_config):
-    """The hidden inputs (``autograder.hidden.inputs.HiddenInputs``): from the batch's cache, or made here."""
+    """The hidden inputs (``autograder.hidden.inputs.HiddenInputs``) of this submission: its own
+    draw (``inputs.draw``, seeded by the secret and the digest of its code) of the batch's inputs,
+    which come from the batch's cache or are made here.  A ``Local`` plugin's inputs, or a cache
+    holding a draw already, are used as they are; without ``--submission``, the batch's."""
     from autograder.hidden import inputs
 
     local = _local(request.config)
@@ -269,8 +273,17 @@ def hidden(request, grading_config):
         if key not in _loaded:  # a grading worker runs one session after another: load once
             _loaded.clear()
             _loaded[key] = inputs.load(Path(cache), grading_config)
-        return _loaded[key]
-    return inputs.build_hidden_inputs(grading_config)
+        batch = _loaded[key]
+    else:
+        batch = inputs.build_hidden_inputs(grading_config)
+    if batch.draw is not None or local is not None or not request.config.getoption("--submission"):
+        request.config._hw4["draw"] = batch.draw
+        return batch
+    # Made here, in the grading process (outside the sandbox), each time: nothing of one
+    # submission's scenes is kept for the next.
+    drawn = inputs.draw(batch, inputs.code_salt(request.getfixturevalue("submission")))
+    request.config._hw4["draw"] = drawn.draw
+    return drawn
 
 
 def pytest_collection_modifyitems(session, config, items):
@@ -468,8 +481,10 @@ def collect_result(config):
         info = session.info
         isolation = info.isolation.as_dict()
         notes += _load_notes(info.load_errors)
+    # Which draw of the hidden scenes was graded, as a short digest only (never a seed or a scene).
+    draw = config._hw4.get("draw")
     return SubmissionResult(tuple(questions), config.getoption("--student-id"), isolation, tuple(notes), None,
-                            time.monotonic() - config._hw4["started"])
+                            time.monotonic() - config._hw4["started"], {"draw": draw} if draw else None)
 
 
 def _load_notes(load_errors) -> list[str]:

@@ -6,6 +6,12 @@ scene behind the kit's published data/ and, when present, the official course da
 The car sequence and the threshold probes of problem 6 come from ``scenes.car.make_car_scene``
 (no images are rendered: the keypoint problem needs none).
 
+A *salt* (a digest of one submission's code, ``autograder.hidden.inputs.code_salt``) makes the
+draw of that submission: every seed of the hidden temples, the cars and the checks' own random
+choices (``Scenes.seed``) then derives from the secret and the salt.  The default data and the
+official data are the same for every draw (``FIXED_LABELS``); ``make_scenes(..., fixed=False)``
+leaves them out, as a batch makes what depends on them once.
+
 Conventions: pixels (x, y) = (column, row); M = [R | t] world -> camera; C = K M; F maps points
 of image 1 to lines of image 2.
 """
@@ -20,7 +26,10 @@ from autograder.config import GradingConfig
 from core.geometry import CameraPair
 from starter.data import TempleData
 
-__all__ = ["Scenes", "TempleCase", "make_scenes"]
+__all__ = ["DEFAULT_LABEL", "FIXED_LABELS", "OFFICIAL_LABEL", "Scenes", "TempleCase", "make_scenes"]
+
+DEFAULT_LABEL, OFFICIAL_LABEL = "the default data", "the official data"
+FIXED_LABELS = (DEFAULT_LABEL, OFFICIAL_LABEL)   # the scenes no salt changes
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +81,11 @@ class Scenes:
     car: object
     probe_car: object
     two_view: CameraPair      # exact data whose cameras have different intrinsics, |t| = 1
+    salt: str | None = None   # the submission's code digest of this draw; None: the secret's own
+
+    def seed(self, label: str) -> int:
+        """The seed of the random input ``label`` in this draw (63-bit; ``config.seed`` when unsalted)."""
+        return _seed(self.config, self.salt, label)
 
     def temple_cases(self, *, official: bool = True, default: bool = True) -> list[TempleCase]:
         """Hidden scenes first, then the default data and the official data when wanted and present."""
@@ -83,29 +97,42 @@ class Scenes:
         return out
 
 
-def make_scenes(config: GradingConfig) -> Scenes:
-    """Render the hidden temple scenes and make the car scenes of ``config`` (a few seconds)."""
+def make_scenes(config: GradingConfig, *, salt: str | None = None, fixed: bool = True) -> Scenes:
+    """Render the hidden temple scenes and make the car scenes of ``config`` (a few seconds).
+
+    salt : None (the draw of the secret alone) or a non-empty str, the submission's code digest
+        whose draw this is.
+    fixed : also add the default data's scene and the official data (they do not depend on the
+        salt); False leaves them out (``default`` and ``official`` are None).
+    """
     from scenes.car import make_car_scene
     from scenes.temple import make_temple_scene
 
+    if salt is not None and (not isinstance(salt, str) or not salt):
+        raise ValueError(f"salt: expected None or a non-empty str, got {salt!r}")
     hidden = tuple(
         TempleCase(f"hidden scene {k}", make_temple_scene(
-            config.seed(f"temple-{k}"), width=spec.width, height=spec.height, noise_px=spec.noise_px))
+            _seed(config, salt, f"temple-{k}"), width=spec.width, height=spec.height, noise_px=spec.noise_px))
         for k, spec in enumerate(config.temples, start=1))
     default = None
-    if config.use_default_data:
+    if fixed and config.use_default_data:
         from scenes.defaults import default_temple
 
-        default = TempleCase("the default data", default_temple())
+        default = TempleCase(DEFAULT_LABEL, default_temple())
     official = None
-    folder = config.official_dir()
+    folder = config.official_dir() if fixed else None
     if folder is not None:
         from starter import load_temple
 
-        official = TempleCase("the official data", None, load_temple(folder))
-    car = make_car_scene(config.seed("car") % 2**32, n_times=config.car_times, render=False)
-    probe_car = make_car_scene(config.seed("car-probe") % 2**32, n_times=2, render=False)
-    return Scenes(config, hidden, default, official, car, probe_car, _two_view(hidden[-1].scene))
+        official = TempleCase(OFFICIAL_LABEL, None, load_temple(folder))
+    car = make_car_scene(_seed(config, salt, "car") % 2**32, n_times=config.car_times, render=False)
+    probe_car = make_car_scene(_seed(config, salt, "car-probe") % 2**32, n_times=2, render=False)
+    return Scenes(config, hidden, default, official, car, probe_car, _two_view(hidden[-1].scene), salt)
+
+
+def _seed(config: GradingConfig, salt: str | None, label: str) -> int:
+    # Unsalted labels are the secret's own seeds as before; a salt makes every label another.
+    return config.seed(label if salt is None else f"{label}\x00draw\x00{salt}")
 
 
 def _two_view(scene) -> CameraPair:

@@ -7,23 +7,30 @@ fixture as ``hidden.prepared["<concept>"]``).  ``base`` holds what they share: M
 each call of a student function may take (``SECONDS``), summed by ``call_seconds`` into the
 session's budget.
 
+``draw_all`` makes one submission's draw: every concept prepared on the scenes of that draw
+(hidden temples, cars; no default or official data), then what the batch made from the default
+and the official data (``FIXED_LABELS``: the same for every draw) put back in its place, so that
+a draw costs only what depends on the submission.
+
 Nothing here reaches a student: the values stay in the grader (the cache folder is 0700).
 Conventions: pixels (x, y) = (column, row); M = [R | t] world -> camera; C = K M.
 """
 
 from __future__ import annotations
 
-from ..scenes import Scenes
+import dataclasses
+
+from ..scenes import DEFAULT_LABEL, FIXED_LABELS, Scenes
 from .base import M1, SECONDS
 from .bundle import prepare_bundle
-from .correspondence import matching_labels, prepare_correspondence
+from .correspondence import combine_correspondence, matching_labels, prepare_correspondence
 from .essential import prepare_essential
 from .fundamental import prepare_fundamental
 from .multiview import prepare_multiview
 from .pose import prepare_pose
 from .triangulation import prepare_triangulation
 
-__all__ = ["CONCEPTS", "M1", "SECONDS", "call_seconds", "matching_labels", "prepare_all"]
+__all__ = ["CONCEPTS", "M1", "SECONDS", "call_seconds", "draw_all", "matching_labels", "prepare_all"]
 
 
 CONCEPTS = {
@@ -36,6 +43,36 @@ CONCEPTS = {
 def prepare_all(scenes: Scenes) -> dict:
     """Every concept's prepared inputs, by concept name."""
     return {name: prepare(scenes) for name, prepare in CONCEPTS.items()}
+
+
+def draw_all(scenes: Scenes, batch: dict) -> dict:
+    """Every concept's prepared inputs for the draw ``scenes`` (made with ``fixed=False``), with the
+    parts of ``batch`` (``prepare_all`` of the unsalted scenes) made from the default and official data."""
+    if scenes.default is not None or scenes.official is not None:
+        raise ValueError("scenes: expected a draw without the default and official data (make_scenes(fixed=False)), "
+                         "got one with them")
+    drawn = prepare_all(scenes)
+    fixed = {name: [c for c in _cases_of(name, batch[name]) if c.label in FIXED_LABELS] for name in drawn}
+    f, t, p = drawn["fundamental"], drawn["triangulation"], drawn["pose"]
+    bf = batch["fundamental"]
+    # The exact and uint16 cases come from the default data when there is one, else from the
+    # last hidden scene (cases.fundamental): the batch's are this draw's in the first case.
+    base = bf if bf.uint16.label.startswith(DEFAULT_LABEL) else f
+    return {
+        **drawn,
+        "fundamental": dataclasses.replace(f, cases=(*f.cases, *fixed["fundamental"]), exact=base.exact,
+                                           uint16=base.uint16),
+        "triangulation": dataclasses.replace(t, noisy=(*t.noisy, *fixed["triangulation"])),
+        "pose": dataclasses.replace(p, cases=(*p.cases, *fixed["pose"])),
+        "correspondence": combine_correspondence(drawn["correspondence"], batch["correspondence"], scenes.config),
+    }
+
+
+def _cases_of(name: str, prepared) -> tuple:
+    # The per-scene cases of a concept (those with a scene label); concepts of the hidden scenes
+    # and cars only (essential, bundle, multiview) have none from the fixed data.
+    return {"fundamental": lambda x: x.cases, "triangulation": lambda x: x.noisy, "pose": lambda x: x.cases,
+            "correspondence": lambda x: x.cases}.get(name, lambda x: ())(prepared)
 
 
 def call_seconds(prepared: dict, time_scale: float) -> float:

@@ -91,7 +91,7 @@ def _x_of(problem: BAProblem) -> np.ndarray:
 
 
 def prepare_bundle(scenes: Scenes) -> Bundle:
-    rng = np.random.default_rng(scenes.config.seed("bundle"))
+    rng = np.random.default_rng(scenes.seed("bundle"))
     problems = tuple(_bundle_problem(tc.label, tc.scene, scenes.config.ba_points, rng) for tc in scenes.hidden[:2])
     inputs = []
     for k, pr in enumerate(problems):

@@ -13,7 +13,7 @@ import numpy as np
 
 from judging import correspondence as jc
 
-from ..scenes import Scenes
+from ..scenes import FIXED_LABELS, Scenes
 from .base import M1
 
 
@@ -73,10 +73,26 @@ def matching_labels(config) -> list[str]:
 
 
 def prepare_correspondence(scenes: Scenes) -> Correspondence:
-    rng = np.random.default_rng(scenes.config.seed("matching"))
+    """The matching problems of the hidden scenes (the first two) and of the default data when
+    ``scenes`` holds it (a draw made without it takes the batch's, ``combine_correspondence``)."""
+    rng = np.random.default_rng(scenes.seed("matching"))
     tcs = [*scenes.hidden[:2], *([scenes.default] if scenes.default else [])]
     cases = tuple(_correspondence_case(f"scene{k}", tc.label, tc.scene, scenes.config.match_points, rng)
                   for k, tc in enumerate(tcs))
-    if [c.label for c in cases] != matching_labels(scenes.config):
-        raise RuntimeError(f"matching_labels: expected {[c.label for c in cases]}, got {matching_labels(scenes.config)}")
+    if scenes.default is not None or not scenes.config.use_default_data:
+        _check_labels(cases, scenes.config)
     return Correspondence(cases, cases[1])
+
+
+def combine_correspondence(drawn: Correspondence, batch: Correspondence, config) -> Correspondence:
+    """A draw's hidden problems with the batch's problem of the default data (``FIXED_LABELS``)."""
+    cases = tuple(c for c in drawn.cases if c.label not in FIXED_LABELS) + tuple(
+        c for c in batch.cases if c.label in FIXED_LABELS)
+    _check_labels(cases, config)
+    return Correspondence(cases, cases[1])
+
+
+def _check_labels(cases, config) -> None:
+    # The tests are parametrized by matching_labels before any scene exists: they must agree.
+    if [c.label for c in cases] != matching_labels(config):
+        raise RuntimeError(f"matching_labels: expected {[c.label for c in cases]}, got {matching_labels(config)}")

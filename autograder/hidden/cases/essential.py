@@ -36,7 +36,7 @@ def _random_F(rng) -> np.ndarray:
 def prepare_essential(scenes: Scenes) -> Essential:
     """Three random rank-2 F's with random K1 != K2 (swapped, missing or inverted K's all show) and
     the true F of an exact two-view scene."""
-    rng = np.random.default_rng(scenes.config.seed("essential") % 2**63)
+    rng = np.random.default_rng(scenes.seed("essential") % 2**63)
     inputs = tuple((_random_F(rng), _random_K(rng), _random_K(rng)) for _ in range(3))
     tv = scenes.two_view
     return Essential(inputs, (tv.F, tv.K1, tv.K2))

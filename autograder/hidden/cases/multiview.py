@@ -80,7 +80,7 @@ def _probe(car, t: int, thres: int, rng, label: str) -> Step:
 
 
 def prepare_multiview(scenes: Scenes) -> Multiview:
-    rng = np.random.default_rng(scenes.config.seed("multiview"))
+    rng = np.random.default_rng(scenes.seed("multiview"))
     sequence = _sequence(scenes.car, int(rng.choice([400, 500, 600])))
     probes = tuple(_probe(scenes.probe_car, t, int(rng.choice([500, 600, 700])), rng, f"threshold probe {t + 1}")
                    for t in range(2))

@@ -1,0 +1,226 @@
+"""Hidden scenes are drawn per submission (issue 10, "No exfiltration").
+
+Each submission is graded on its own draw of the hidden scenes, seeded by the grader's secret and
+a digest of the code the grader runs (``autograder.hidden.inputs.code_salt``): the same code
+gets the same scenes (a regrade, a folder or a zip, notebooks rewritten by nbgrader), other code
+other scenes; what does not depend on the submission (the default data and the reference's
+results on it) is the batch's, made once.  Results name the draw by a short digest only.
+Quick settings (``quick_config``); the graded part runs the answer key and one variant in the
+sandbox.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import zipfile
+
+import corpus
+import nbformat
+import numpy as np
+import pytest
+
+from autograder import canary
+from autograder.config import quick_config
+from autograder.grade import grade_submission
+from autograder.hidden import inputs
+from autograder.hidden.scenes import FIXED_LABELS
+from autograder.sandbox import ResourceLimits, Sandbox
+from autograder.submission import load_submission
+
+LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
+
+
+@pytest.fixture(scope="module")
+def batch():
+    return inputs.build_hidden_inputs(quick_config())
+
+
+@pytest.fixture(scope="module")
+def drawn(batch):
+    """Draws of the salts "a..." and "b..." (each made once for the module's tests)."""
+    return {k: inputs.draw(batch, k * 32) for k in "ab"}
+
+
+def _temple_points(hidden) -> np.ndarray:
+    return np.concatenate([np.asarray(c.pts1, float).ravel() for c in hidden.prepared["fundamental"].cases
+                           if c.label.startswith("hidden scene")])
+
+
+def _car(hidden) -> np.ndarray:
+    return np.asarray(hidden.prepared["multiview"].video, float)
+
+
+# ---------------------------------------------------------------------------------------------
+# the draw itself, in this process
+
+
+def test_one_salt_draws_the_same_scenes_twice_and_another_salt_others(batch, drawn):
+    a, b = drawn["a"], drawn["b"]
+    again = inputs.draw(batch, "a" * 32)  # made again from nothing but the batch and the salt
+    assert a is not again and a.draw == again.draw == batch.config.draw_digest("a" * 32) != b.draw
+    assert np.array_equal(_temple_points(a), _temple_points(again)) and np.array_equal(_car(a), _car(again))
+    assert np.array_equal(a.prepared["bundle"].problems[0].p1, again.prepared["bundle"].problems[0].p1)
+    pa, pb = _temple_points(a), _temple_points(b)
+    assert pa.shape != pb.shape or not np.allclose(pa, pb)
+    assert not np.allclose(_car(a), _car(b))
+    assert not np.allclose(a.prepared["essential"].inputs[0][0], b.prepared["essential"].inputs[0][0])
+    # Neither is the secret's own draw (what every submission got before).
+    assert not np.allclose(_car(a), _car(batch))
+
+
+def test_a_draw_keeps_the_batch_parts_and_the_shapes(batch, drawn):
+    a = drawn["a"]
+    for name in ("fundamental", "pose", "correspondence"):
+        assert [c.label for c in a.prepared[name].cases] == [c.label for c in batch.prepared[name].cases], name
+    for name in ("fundamental", "correspondence"):  # the default data's (no official data here)
+        fixed = [c for c in a.prepared[name].cases if c.label in FIXED_LABELS]
+        assert fixed and fixed == [c for c in batch.prepared[name].cases if c.label in FIXED_LABELS], name
+    assert a.prepared["fundamental"].uint16 is batch.prepared["fundamental"].uint16  # made from the default data
+    assert a.prepared["correspondence"].points_case.label == "hidden scene 2"
+    # The session's budget is the batch's: a draw changes values, never how many calls are made.
+    assert a.call_seconds() == batch.call_seconds()
+
+
+def test_a_draw_made_in_advance_is_the_one_made_later(batch, drawn):
+    early = inputs.with_draws(batch, ["a" * 32])
+    assert early.prepared is batch.prepared and set(early.drawn) == {"a" * 32}
+    used = inputs.draw(early, "a" * 32)
+    assert used.draw == drawn["a"].draw and np.array_equal(_temple_points(used), _temple_points(drawn["a"]))
+
+
+def test_the_unsalted_call_is_the_batch_and_bad_salts_are_refused(batch, drawn):
+    assert inputs.build_hidden_inputs(quick_config()) is batch and batch.draw is None
+    with pytest.raises(ValueError, match="salt"):
+        inputs.draw(batch, "")
+    with pytest.raises(ValueError, match="batch"):
+        inputs.draw(drawn["a"], "f" * 32)
+
+
+# ---------------------------------------------------------------------------------------------
+# the salt: the code the grader runs, whatever the channel
+
+
+def _nbgrader_rewrite(folder, target):
+    """``folder``'s notebooks as nbgrader hands them back: notebook and cell metadata of its own,
+    new cell ids, no outputs, its hidden-test cells added, written with another JSON layout."""
+    target.mkdir(parents=True)
+    for k, path in enumerate(sorted(folder.glob("*.ipynb"))):
+        nb = nbformat.read(path, as_version=4)
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+        nb.metadata["nbgrader"] = {"__altered__": False, "__hash__": 1234 + k}
+        for j, cell in enumerate(nb.cells):
+            cell["id"] = f"nbgrader-{k}-{j}"
+            cell.metadata["nbgrader"] = {"grade": False, "locked": False, "solution": True, "grade_id": f"cell-{j}",
+                                         "schema_version": 3, "task": False}
+            if cell.cell_type == "code":
+                cell.outputs, cell.execution_count = [], None
+        nb.cells.append(nbformat.v4.new_code_cell("# hidden checks\n### BEGIN HIDDEN TESTS\n0.0\n### END HIDDEN TESTS"))
+        (target / path.name).write_text(json.dumps(nb, indent=2, sort_keys=True))
+    return target
+
+
+def _zip(folder, path):
+    with zipfile.ZipFile(path, "w") as zf:
+        for p in sorted(folder.iterdir()):
+            zf.write(p, f"my-hw4/{p.name}")
+    return path
+
+
+def _edited(name, folder, edit):
+    nbs = corpus.notebooks("key")
+    edit(nbs)
+    folder = folder / name
+    folder.mkdir(parents=True)
+    for stem, nb in nbs.items():
+        nbformat.write(nb, folder / f"{stem}.ipynb")
+    return folder
+
+
+def _with_comment(nbs):
+    for nb in nbs.values():
+        for cell in nb.cells:
+            if cell.cell_type == "code" and "def eightpoint(" in cell.source:
+                cell.source = "# a comment the grader does not run\n\n" + cell.source.replace("\n", "  \n", 1)
+
+
+def _with_body_change(nbs):
+    for nb in nbs.values():
+        for cell in nb.cells:
+            if cell.cell_type == "code" and "def eightpoint(" in cell.source:
+                head, body = cell.source.split("def eightpoint(", 1)
+                signature, rest = body.split(":\n", 1)
+                cell.source = f"{head}def eightpoint({signature}:\n    unused = 1\n{rest}"
+
+
+def test_the_same_code_has_one_salt_whatever_the_channel_and_other_code_another(tmp_path):
+    folder = corpus.build("key_full_marks", tmp_path / "subs")
+    salt = inputs.code_salt(load_submission(folder))
+    assert re.fullmatch(r"[0-9a-f]{32}", salt)
+    same = {
+        "zip": _zip(folder, tmp_path / "key.zip"),
+        "nbgrader": _nbgrader_rewrite(folder, tmp_path / "nbgrader" / "hw4"),
+        "comment": _edited("comment", tmp_path / "edits", _with_comment),
+    }
+    for channel, path in same.items():
+        assert inputs.code_salt(load_submission(path)) == salt, channel
+    body = _edited("body", tmp_path / "edits", _with_body_change)
+    assert inputs.code_salt(load_submission(body)) != salt
+    other = corpus.build("hartley_normalisation_full_marks", tmp_path / "subs")
+    assert inputs.code_salt(load_submission(other)) != salt
+
+
+# ---------------------------------------------------------------------------------------------
+# graded in the sandbox
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory, batch):
+    root = tmp_path_factory.mktemp("draws")
+    key = corpus.build("key_full_marks", root / "subs")
+    other = corpus.build("transposed_F_loses_Q2", root / "subs")
+    zipped = _zip(key, root / "key.zip")
+    out = {}
+    with Sandbox(hidden=[root], limits=LIMITS) as box:
+        out["canary"] = canary.check(box, batch)
+        for name, path in (("key", key), ("again", key), ("zip", zipped), ("other", other)):
+            out[name] = grade_submission(path, sandbox=box, hidden_inputs=batch, student_id=name)
+    out["paths"] = {"key": key, "other": other}
+    return out
+
+
+def _scores(result) -> dict:
+    return {q.id: [t.score for t in q.tests] for q in result.questions}
+
+
+def test_a_regrade_and_a_zip_of_the_same_code_get_the_same_draw_and_scores(graded, batch):
+    key, again, zipped = graded["key"], graded["again"], graded["zip"]
+    expected = batch.config.draw_digest(inputs.code_salt(load_submission(graded["paths"]["key"])))
+    assert key.configuration == again.configuration == zipped.configuration == {"draw": expected}
+    assert _scores(key) == _scores(again) == _scores(zipped)
+    assert key.questions and all(t.score >= t.max_score for q in key.questions for t in q.tests)
+
+
+def test_other_code_gets_another_draw(graded, batch):
+    other = graded["other"]
+    expected = batch.config.draw_digest(inputs.code_salt(load_submission(graded["paths"]["other"])))
+    assert other.configuration == {"draw": expected} != graded["key"].configuration
+    assert other.score < graded["key"].score
+
+
+def test_the_canary_still_gets_full_marks(graded):
+    report = graded["canary"]
+    assert report.max_score > 0 and report.score >= report.max_score
+
+
+def test_results_name_the_draw_by_a_short_digest_only(graded, batch):
+    for name in ("key", "other"):
+        result = graded[name]
+        salt = inputs.code_salt(load_submission(graded["paths"][name]))
+        text = json.dumps(result.to_dict()) + json.dumps(result.to_gradescope(visibility={}))
+        assert re.fullmatch(r"[0-9a-f]{12}", result.configuration["draw"])
+        assert salt not in text and salt[:16] not in text
+        drawn = inputs.draw(batch, salt)
+        points = _temple_points(drawn)[:20]
+        shown = [f"{v:.3f}" for v in points] + [f"{v:.3f}" for v in _car(drawn).ravel()[:20]]
+        assert not [s for s in shown if s in text], "a coordinate of the drawn scenes reached the results"
