@@ -12,15 +12,18 @@ Deployment shapes reproduced here (see /work/shared/FIELD-NOTES.md):
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
+import socket
 import stat
 import subprocess
 import sys
 import sysconfig
 import tempfile
 import textwrap
+import threading
 from pathlib import Path
 
 import nbformat
@@ -120,6 +123,83 @@ def parse(proc: subprocess.CompletedProcess) -> dict:
     return json.loads(line[len("RESULT "):])
 
 
+@contextlib.contextmanager
+def listener():
+    """``(port, heard)``: a TCP server on 127.0.0.1 whose every connection's bytes go into ``heard``."""
+    server = socket.create_server(("127.0.0.1", 0))
+    server.settimeout(0.2)
+    heard: list[bytes] = []
+    stop = threading.Event()
+
+    def serve():
+        while not stop.is_set():
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                continue
+            with conn:
+                conn.settimeout(2)
+                try:
+                    heard.append(conn.recv(1000) or b"(connected)")
+                except OSError:
+                    heard.append(b"(connected)")
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield server.getsockname()[1], heard
+    finally:
+        stop.set()
+        thread.join(5)
+        server.close()
+
+
+def phones_home(port: int) -> str:
+    """A notebook cell that sends what it can reach to 127.0.0.1:``port``, on loading and in each call,
+    also from a process it starts."""
+    return textwrap.dedent(f"""\
+        import socket, subprocess, sys
+        def _send(what):
+            try:
+                socket.create_connection(("127.0.0.1", {port}), timeout=3).sendall(what)
+            except OSError:
+                pass
+        _send(b"loaded")
+        subprocess.run([sys.executable, "-c", "import socket; socket.create_connection(('127.0.0.1', {port}), 3).sendall(b'child')"])
+        def eightpoint(pts1, pts2, M, refine=True):
+            _send(b"called")
+            try:
+                socket.create_connection(("::1", {port}), timeout=3).sendall(b"v6")
+            except OSError:
+                pass
+        """)
+
+
+def test_internet_sockets_are_refused_in_a_container_without_namespaces(tmp_path):
+    # Docker's default capabilities (no CAP_SYS_ADMIN, so no network namespace): the sandbox's child
+    # installs a seccomp filter (no capability needed after PR_SET_NO_NEW_PRIVS) before any student code.
+    program = textwrap.dedent("""\
+        import sys
+        from autograder.sandbox import Sandbox
+        src = open(sys.argv[1]).read()
+        with Sandbox(isolation="basic", allow_weak=True) as box:
+            print("NOTES", box.isolation.notes)
+            with box.session(src, budget=60) as session:
+                print("CALL", session.call("eightpoint", None, None, 1, seconds=20).status)
+                print("UNIX", session.call("_unix", seconds=5).value)
+        """)
+    (tmp_path / "program.py").write_text(program)
+    (tmp_path / "cell.py").write_text("")
+    with listener() as (port, heard):
+        (tmp_path / "cell.py").write_text(phones_home(port) + "def _unix():\n    a, b = socket.socketpair()\n"
+                                          "    a.sendall(b'x')\n    return b.recv(1).decode()\n")
+        proc = run(in_container([sys.executable, str(tmp_path / "program.py"), str(tmp_path / "cell.py")]))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "CALL ok" in proc.stdout and "UNIX x" in proc.stdout  # the code ran; Unix sockets work
+    assert "refused by a seccomp filter" in proc.stdout
+    assert heard == [], heard
+
+
 # ---------------------------------------------------------------------------------------------
 # a Python under a private folder, in a container
 
@@ -174,11 +254,15 @@ def test_container_runs_hostile_code_as_its_own_uid_and_hides_the_graders_files(
                     return None
                 return np.zeros((3, 3))
             """)})
-        proc = run(in_container([str(public_python), driver(tmp_path), "strict",
-                                 str(kill), str(steal), str(find), str(probe)]), timeout=900)
+        with listener() as (port, heard):
+            phone = notebook_submission(subs_dir / "phones_home", {"q2_eightpoint": phones_home(port)})
+            proc = run(in_container([str(public_python), driver(tmp_path), "strict",
+                                     str(kill), str(steal), str(find), str(probe), str(phone)]), timeout=900)
         got = parse(proc)  # the batch survived the submission that signals its parent
     finally:
         shutil.rmtree(key_out, ignore_errors=True)
+    assert heard == [], heard  # no internet socket at the uid level (seccomp), though no network namespace
+    assert any("refused by a seccomp filter" in n for n in got["isolation"]["notes"])
     iso = got["isolation"]
     assert iso["level"] == "uid" and not iso["weak"]
     assert iso["uid"] not in (None, 0, got["grader_uid"])

@@ -143,7 +143,7 @@ class Sandbox:
         rt = self.runtime
         return {"base": str(self._base), "level": rt.level, "uid": rt.uid, "gid": rt.gid, "lib": str(rt.lib),
                 "hidden": [str(p) for p in rt.hidden], "private_tmp": rt.private_tmp,
-                "limits": vars(rt.limits) | {}, "isolation": self.isolation.as_dict(),
+                "limits": vars(rt.limits) | {}, "isolation": self.isolation.as_dict(), "deny_internet": rt.deny_internet,
                 "kit_root": str(self.kit_root)}
 
     @classmethod
@@ -159,7 +159,7 @@ class Sandbox:
         box._owner = False
         box._base = Path(spec["base"])
         box.runtime = Runtime(spec["level"], spec["uid"], Path(spec["lib"]), tuple(Path(p) for p in spec["hidden"]),
-                              bool(spec["private_tmp"]), box.limits, spec.get("gid"))
+                              bool(spec["private_tmp"]), box.limits, spec.get("gid"), bool(spec.get("deny_internet")))
         iso = dict(spec["isolation"])
         box.isolation = Isolation(**{**iso, "hidden_paths": tuple(iso["hidden_paths"]), "notes": tuple(iso["notes"])})
         return box

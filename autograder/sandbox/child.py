@@ -70,6 +70,60 @@ def _disarm():
     signal.setitimer(signal.ITIMER_PROF, 0)
 
 
+# seccomp: the syscall numbers of socket() and io_uring_setup() (io_uring can open sockets without
+# calling socket()) and the audit architecture, per machine this filter knows.
+_SECCOMP_ARCH = {"x86_64": (0xC000003E, 41, 425), "aarch64": (0xC00000B7, 198, 425)}
+
+
+def deny_internet():
+    """Refuse internet sockets to this process and everything it starts: None when done, else why not.
+
+    A seccomp filter (no capability needed once PR_SET_NO_NEW_PRIVS is set, so it works under
+    Docker's default capabilities): socket(AF_INET or AF_INET6, ...) and io_uring_setup fail with
+    EACCES, and so does every syscall of another ABI (x32, or 32-bit calls through int 0x80, which
+    would go around the numbers checked).  Unix sockets and pipes keep working.  Must run before
+    any thread starts (the filter covers the calling thread and those it starts later).
+    """
+    import ctypes
+    import platform
+    import struct
+
+    found = _SECCOMP_ARCH.get(platform.machine())
+    if found is None:
+        return f"no seccomp filter for the {platform.machine()} architecture"
+    arch, nr_socket, nr_io_uring = found
+    ld, jeq, jge, ret = 0x20, 0x15, 0x35, 0x06        # BPF_LD|W|ABS, BPF_JMP|JEQ|K, BPF_JMP|JGE|K, BPF_RET|K
+    allow, deny = 0x7FFF0000, 0x00050000 | 13         # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO | EACCES
+    arg0 = 16 if sys.byteorder == "little" else 20    # low 32 bits of args[0] in struct seccomp_data
+    program = [                                       # (code, jump if true, jump if false, k); 9 allows, 10 denies
+        (ld, 0, 0, 4),                                # 0: the architecture
+        (jeq, 0, 8, arch),                            # 1: another ABI: deny
+        (ld, 0, 0, 0),                                # 2: the syscall number
+        (jge, 6, 0, 0x40000000),                      # 3: x32 syscalls: deny
+        (jeq, 5, 0, nr_io_uring),                     # 4
+        (jeq, 0, 3, nr_socket),                       # 5: not socket(): allow
+        (ld, 0, 0, arg0),                             # 6: the address family
+        (jeq, 2, 0, 2),                               # 7: AF_INET
+        (jeq, 1, 0, 10),                              # 8: AF_INET6
+        (ret, 0, 0, allow),                           # 9
+        (ret, 0, 0, deny),                            # 10
+    ]
+    code = b"".join(struct.pack("HBBI", *ins) for ins in program)
+    buffer = ctypes.create_string_buffer(code, len(code))
+
+    class SockFprog(ctypes.Structure):
+        _fields_ = [("len", ctypes.c_ushort), ("filter", ctypes.c_void_p)]
+
+    prog = SockFprog(len(program), ctypes.addressof(buffer))
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl.argtypes = [ctypes.c_int, ctypes.c_ulong, ctypes.c_void_p, ctypes.c_ulong, ctypes.c_ulong]
+    if libc.prctl(38, 1, None, 0, 0) != 0:            # PR_SET_NO_NEW_PRIVS
+        return f"PR_SET_NO_NEW_PRIVS failed: {os.strerror(ctypes.get_errno())}"
+    if libc.prctl(22, 2, ctypes.byref(prog), 0, 0) != 0:  # PR_SET_SECCOMP, SECCOMP_MODE_FILTER
+        return f"the seccomp filter was refused: {os.strerror(ctypes.get_errno())}"
+    return None
+
+
 class _Channel:
     """Writes newline-terminated JSON records to the result pipe; only the first process may."""
 
@@ -341,6 +395,12 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
 
 
 def main(argv):
+    if "--deny-internet" in argv:
+        # First, while this process has one thread: student code must never run without it.
+        why = deny_internet()
+        if why is not None:
+            sys.stderr.write(f"sandbox: internet sockets could not be refused ({why})\n")
+            os._exit(70)
     fd = int(argv[argv.index("--result-fd") + 1])
     os.set_inheritable(fd, False)
     channel = _Channel(fd)

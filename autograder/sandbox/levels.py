@@ -20,6 +20,7 @@ its ``Isolation`` and the lock that reserves its uid (the caller releases it).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -38,10 +39,21 @@ __all__ = ["choose", "isolation_of", "python_fix"]
 
 # Reads every path given on its command line; prints the ones it could read, as JSON.
 _READ_PROBE = """\
-import json, os, sys
+import json, os, socket, sys
+net = None
+if sys.argv[1] == "deny":
+    sys.path.insert(0, sys.argv[2])
+    import child
+    net = child.deny_internet()
+    if net is None:
+        try:
+            socket.socket(socket.AF_INET).close()
+            net = "an internet socket could still be made"
+        except PermissionError:
+            pass
 import numpy
 seen = []
-for p in sys.argv[1:]:
+for p in sys.argv[3:]:
     try:
         if os.path.isdir(p):
             os.listdir(p)
@@ -50,7 +62,7 @@ for p in sys.argv[1:]:
         seen.append(p)
     except OSError:
         pass
-print('sandbox-ok ' + json.dumps([os.getuid(), os.getgid(), seen]))
+print('sandbox-ok ' + json.dumps([os.getuid(), os.getgid(), seen, net]))
 """
 
 
@@ -58,11 +70,13 @@ def isolation_of(rt: Runtime, notes: tuple[str, ...] = (), weak: bool = False) -
     """What a runtime isolates, in the words of the results."""
     namespaced = rt.namespaced
     extra = []
+    net = ("internet sockets (IPv4, IPv6) are refused by a seccomp filter (checked), local Unix sockets are not"
+           if rt.deny_internet else "the network stays reachable")
     if rt.level == "uid":
-        extra.append("no namespaces here: the hidden paths are unreadable to the code's uid (checked), the "
-                     "network stays reachable and files that other users may read stay readable")
+        extra.append(f"no namespaces here: the hidden paths are unreadable to the code's uid (checked), {net}, "
+                     "and files that other users may read stay readable")
     elif not namespaced:
-        extra.append("hidden paths stay readable and the network reachable at this level")
+        extra.append(f"hidden paths stay readable at this level; {net}")
     if rt.uid is None:
         extra.append("the code runs as the grader's own user")
     hidden = tuple(str(p) for p in rt.hidden) if namespaced or rt.level == "uid" else ()
@@ -149,38 +163,48 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
             claim_uid(uid)
         else:
             the_uid, fd = pick_uid()
-    rt = Runtime(level, the_uid, lib, hidden, private_tmp, limits, gid)
-    reason = _probe(rt, scratch)
+    # Without a network namespace, the child refuses internet sockets itself (seccomp), when the
+    # probe shows the filter works here.
+    rt = Runtime(level, the_uid, lib, hidden, private_tmp, limits, gid, deny_internet=level in ("uid", "basic"))
+    reason, net = _probe(rt, scratch)
+    if rt.deny_internet and (reason is not None or net is not None):
+        plain = dataclasses.replace(rt, deny_internet=False)
+        plain_reason, _ = _probe(plain, scratch)
+        if plain_reason is None:  # the filter is what failed: the level works, the network stays reachable
+            notes.append(f"{level}: internet sockets could not be refused ({net or reason})")
+            rt, reason = plain, None
     if reason is not None:
         release_uid(the_uid, fd)
         return reason, None
     return None, (rt, fd)
 
 
-def _probe(rt: Runtime, scratch: Path) -> str | None:
-    """None when a trivial program runs in ``rt`` (at the ``uid`` level: as its uid, reading none of
-    the hidden paths), else the reason."""
+def _probe(rt: Runtime, scratch: Path) -> tuple[str | None, str | None]:
+    """``(reason, net)``: reason is None when a trivial program runs in ``rt`` (at the ``uid`` level:
+    as its uid, reading none of the hidden paths), else why not; net (with ``rt.deny_internet``) is
+    None when the seccomp filter was installed and refused an internet socket, else why not."""
     jobdir = Path(tempfile.mkdtemp(prefix="probe", dir=scratch))
     os.chmod(jobdir, 0o711)
     try:
         workdir = script.make_workdir(rt, jobdir)
-        program = [sys.executable, "-I", "-B", "-c", _READ_PROBE, *[str(p) for p in rt.hidden]]
+        program = [sys.executable, "-I", "-B", "-c", _READ_PROBE, "deny" if rt.deny_internet else "-",
+                   str(rt.lib_inside()), *[str(p) for p in rt.hidden]]
         try:
             proc = subprocess.run(script.command(rt, workdir, program), capture_output=True, timeout=60,
                                   stdin=subprocess.DEVNULL, check=False, **script.popen_options(rt, workdir, 60))
         except (OSError, subprocess.SubprocessError) as exc:
-            return f"{type(exc).__name__}: {exc}"
+            return f"{type(exc).__name__}: {exc}", None
         out = proc.stdout.decode(errors="replace")
         if proc.returncode != 0 or "sandbox-ok " not in out:
             tail = proc.stderr.decode(errors="replace").strip().splitlines()[-1:] or [f"exit code {proc.returncode}"]
-            return tail[0][:300]
-        got_uid, got_gid, seen = json.loads(out.split("sandbox-ok ", 1)[1].splitlines()[0])
+            return tail[0][:300], None
+        got_uid, got_gid, seen, net = json.loads(out.split("sandbox-ok ", 1)[1].splitlines()[0])
         if rt.uid is not None and (got_uid != rt.uid or got_uid in (0, os.getuid())):
-            return f"the code ran as uid {got_uid}, not the sandbox's {rt.uid}"
+            return f"the code ran as uid {got_uid}, not the sandbox's {rt.uid}", None
         if rt.level == "uid" and seen:
             return (f"the sandbox's uid can still read {', '.join(seen[:5])}; make these paths unreadable to "
-                    f"other users (chmod o-rwx) or grade where namespaces work")
-        return None
+                    f"other users (chmod o-rwx) or grade where namespaces work"), None
+        return None, net
     finally:
         shutil.rmtree(jobdir, ignore_errors=True)
         if rt.uid is not None:

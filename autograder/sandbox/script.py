@@ -43,7 +43,8 @@ class Runtime:
     the namespace (or, at the ``uid`` level, unreadable to ``gid``); private_tmp: own /tmp,
     /var/tmp, /dev/shm; limits: the rlimits and sizes; gid: the group the code runs in (None:
     the same number as ``uid``; at the ``uid`` level the sandbox's group that the hidden paths
-    deny, ``deny.SANDBOX_GID``).
+    deny, ``deny.SANDBOX_GID``); deny_internet: the child refuses internet sockets to the code with a
+    seccomp filter (``child.deny_internet``; the levels without a network namespace).
     """
 
     level: str
@@ -53,6 +54,7 @@ class Runtime:
     private_tmp: bool
     limits: ResourceLimits
     gid: int | None = None
+    deny_internet: bool = False
 
     @property
     def namespaced(self) -> bool:
@@ -63,7 +65,8 @@ class Runtime:
         return Path("/tmp/.hw4-lib") if self.namespaced and self.private_tmp else self.lib
 
     def child_argv(self, result_fd: int) -> list[str]:
-        return [sys.executable, "-I", "-B", str(self.lib_inside() / "child.py"), "--result-fd", str(result_fd)]
+        return [sys.executable, "-I", "-B", str(self.lib_inside() / "child.py"), "--result-fd", str(result_fd),
+                *(["--deny-internet"] if self.deny_internet else [])]
 
 
 # ------------------------------------------------------------------------------------------------
