@@ -24,11 +24,18 @@ Isolation, strongest available first (``Sandbox.isolation`` says which was used;
     privileges, resource limits, a new session, the /proc sweep.  Every hidden path gets an ACL
     entry that denies that group (``deny.py``), and the probe checks, as that uid, that none of
     them can be read.  The Python must be reachable without opening a private folder: a pyenv
-    under /root is refused with the fix (a venv from a public Python).  The network is NOT cut,
-    and files any user may read stay readable: the grader writes its own files owner-only.
+    under /root is refused with the fix (a venv from a public Python).  There is no network
+    namespace: the child refuses internet sockets itself with a seccomp filter installed before
+    any student code (``child.deny_internet``; no capability needed, checked by the probe), but
+    local Unix sockets and files any user may read stay reachable: the grader writes its own files
+    owner-only.
 ``basic`` (weak, only with ``allow_weak``)
-    Resource limits, a new session killed as a group, and (as root) the dedicated uid plus the
-    /proc sweep.  Hidden paths are NOT hidden and the network is NOT cut: ``Isolation`` says so.
+    Resource limits, a new session killed as a group, the seccomp filter, and (as root) the
+    dedicated uid plus the /proc sweep.  Hidden paths are NOT hidden: ``Isolation`` says so.
+
+Every grader folder of the temporary directory (this Sandbox's scratch, the hidden inputs, the
+canary's key) records its owner, and making a Sandbox first removes those whose owner was killed
+(``leftovers.py``).
 
 Student code never runs as root or as the grader's own user unless ``allow_weak`` is given
 (``user-namespaces`` keeps the grader's uid, ``basic`` its files): without it, a machine where
@@ -40,7 +47,8 @@ open files, no core files; ``script.py``), wall-clock limits per call and per se
 bounded reads of stdout, stderr and results.
 
 Modules: ``model`` (limits, isolation, outcomes), ``uids``, ``levels`` (probing), ``script``
-(argv, environment, rlimits), ``session`` (the protocol's grader side), ``child`` (its child side).
+(argv, environment, rlimits), ``session`` (the protocol's grader side), ``child`` (its child side),
+``leftovers`` (the grader's temporary folders).
 """
 
 from __future__ import annotations
