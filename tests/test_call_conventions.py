@@ -149,6 +149,42 @@ def test_pts2_inconsistent_with_w_loses_exactly_the_pts2_check(hidden):
     assert "of pts1 and of your pts2 (goal >= 90%)" in lost[0].feedback, lost[0].feedback
 
 
+def _triangulate_mean_err(C1, pts1, C2, pts2):
+    import solutions
+
+    w, err = solutions.triangulate(C1, pts1, C2, pts2)
+    return w, err / len(w)
+
+
+def _findM2_C2_of_K1(F, pts1, pts2, K1, K2):
+    import solutions
+
+    M2, C2, w = solutions.findM2(F, pts1, pts2, K1, K2)
+    return M2, K1 @ M2, w
+
+
+def _ba_o2_of_the_start(K1, M1, p1, K2, M2_init, p2, w_init):
+    import solutions
+
+    M2, w, o1, o2 = solutions.bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init)
+    return M2, w, o1, o1
+
+
+# function -> (its replacement returning one companion value inconsistent, question, the one check to lose)
+INCONSISTENT = {
+    "triangulate": (_triangulate_mean_err, "Q3.2", "err is the total squared reprojection error of w"),
+    "findM2": (_findM2_C2_of_K1, "Q3.3", "C2 = K2 M2 and w are the points triangulated with it"),
+    "bundleAdjustment": (_ba_o2_of_the_start, "Q5", "o1 and o2 are the reprojection errors before and after"),
+}
+
+
+@pytest.mark.parametrize("function", list(INCONSISTENT))
+def test_a_companion_value_is_judged_against_the_returned_points(hidden, function):
+    fn, qid, check = INCONSISTENT[function]
+    q = _questions(hidden, **{function: fn})[qid]
+    assert [t.name for t in q.tests if t.score < t.max_score] == [check], [(t.name, t.feedback) for t in q.tests]
+
+
 def test_the_reference_err_passes_with_two_or_three_views(hidden):
     from judging import multiview as jm
     from solutions import MultiviewReconstruction
