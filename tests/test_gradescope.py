@@ -339,6 +339,21 @@ def test_bundle_carries_the_hidden_inputs_and_its_display_settings(bundle, names
     assert info["time_factor"] == gradescope.DEFAULT_TIME_FACTOR
 
 
+def test_bundle_carries_the_answer_keys_draw_so_a_container_draws_only_the_submissions(bundle, tmp_path):
+    from autograder.hidden import inputs
+    from autograder.submission import load_submission
+
+    source = unpack(bundle, tmp_path) / "source"
+    config = load_config(source / gradescope.CONFIG_NAME, environ={})
+    os.chmod(source / gradescope.HIDDEN_INPUTS_DIR, 0o700)
+    hidden = inputs.load(source / gradescope.HIDDEN_INPUTS_DIR, config)
+    salt = inputs.code_salt(load_submission(source / gradescope.KEY_NAME))
+    assert hidden.draw is None and list(hidden.drawn) == [salt]
+    key_draw = inputs.draw(hidden, salt)
+    assert key_draw.scenes is None and key_draw.prepared is hidden.drawn[salt]  # bundled, not made again
+    assert key_draw.draw == config.draw_digest(salt)
+
+
 def test_visibility_and_time_factor_are_checked_at_build(tmp_path):
     with pytest.raises(ValueError, match="visibility"):
         gradescope.build_bundle(tmp_path / "a.zip", visibility={"checks": "sometimes"}, allow_dev_secret=True)
@@ -408,6 +423,10 @@ def test_results_json_uses_the_bundled_inputs_and_calibrated_limits(gradescope_d
     assert {t["visibility"] for t in data["tests"] if "score" in t} == {"visible"}
     assert {t["visibility"] for t in data["tests"] if "score" not in t} <= {"after_published", "hidden"}
     assert "Base points:" in data["output"]
+    # The result records how it was graded; of the submission's own hidden draw, a digest only.
+    record = data["extra_data"]["configuration"]
+    assert re.fullmatch(r"[0-9a-f]{12}", record["draw"]) and record["secret_fingerprint"] and record["isolation"]
+    assert SECRET not in json.dumps(data)
 
 
 @pytest.mark.slow
