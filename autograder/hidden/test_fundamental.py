@@ -1,14 +1,21 @@
 """Q2: ``eightpoint(pts1, pts2, M)`` on hidden scenes, judged by judging.fundamental.
 
 F is defined up to scale and sign, and several answers are right (refineF or not, the handout's
-1/M scaling or Hartley's normalisation), so no F is compared entry by entry.  Instead the RMS
-symmetric distance of *true* matches to the student's epipolar lines must stay below a goal set
-from the valid variants; F must have rank 2; noise-free matches must give an exact F (which also
-lets the catalogue name what went wrong), also with refineF switched off inside the sandbox (every
-global of eightpoint bound to refineF returns its F unchanged for that one call), so that an F
-refineF polished into a near miss (a transposed design matrix) is seen as written; the data files' uint16 points must give the F of the
-same points as float.  Rank 2 and uint16 count only where F fits the scene: a zero or constant
-matrix earns nothing.
+1/M scaling or Hartley's normalisation, SVD or eigh), so no F is compared entry by entry:
+
+- fits: the RMS symmetric distance of *true* matches to the student's epipolar lines stays below a
+  goal set from the scene's noise and the reference's distance on the same scene (FIT_FACTOR times
+  the larger);
+- rank 2, and the data files' uint16 points give the F of the same points as float: counted only
+  where F fits the scene (a zero or constant matrix earns nothing);
+- noise-free matches (several scenes) give an exact F, to EXACT_TOL * M; the catalogue then names
+  what went wrong.
+
+Every input is given twice: as it is, and with refineF switched off inside the sandbox (every
+global of eightpoint bound to refineF returns its F unchanged for that request, as the FAQ's
+"comment out the call to refineF"); rank 2, the exact F and uint16 are judged on both F's, since
+refineF polishes a transposed design matrix into a near miss and returns rank 2 whatever it gets.
+A lost point's feedback says how eightpoint was called (argument kinds, never values).
 """
 
 from __future__ import annotations
@@ -17,9 +24,13 @@ import numpy as np
 import pytest
 
 from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import value_of
+from autograder.hidden.feedback import called_as, read_returned
 from judging import fundamental as jf
 from judging.verdict import Malformed
+
+_OFF = "with refineF switched off"
+_OFF_NOTE = ("switched off: every name of your eightpoint bound to the kit's refineF returned the F it was given, "
+             "as the FAQ's 'comment out the call to refineF' (refineF can hide a mistake made before it)")
 
 
 @pytest.fixture(scope="session")
@@ -28,107 +39,172 @@ def fundamental(hidden):
     return hidden.prepared["fundamental"]
 
 
-@pytest.fixture(scope="session")
-def eightpoint_F(student, fundamental) -> dict:
-    """The student's F (or the Malformed saying why there is none) of every case, by case: one request."""
-    p = fundamental
-    cases = (*p.cases, p.exact, p.uint16)
-    outcomes = student.each("eightpoint", [(c.pts1, c.pts2, c.M) for c in cases], seconds=SECONDS["eightpoint"],
-                            slack=5 * student.time_scale + 2)
+def _all_cases(p) -> tuple:
+    return (*p.cases, *p.exact, p.uint16)
+
+
+def _args(case) -> tuple:
+    return case.pts1, case.pts2, case.M
+
+
+def request_F(student, p, swap=None) -> dict:
+    """The student's F (or the Malformed saying why there is none, and how eightpoint was called) of
+    every case, by case: one request."""
+    cases = _all_cases(p)
+    outcomes = student.each("eightpoint", [_args(c) for c in cases], seconds=SECONDS["eightpoint"],
+                            slack=5 * student.time_scale + 2, swap=swap)
     out = {}
     for case, o in zip(cases, outcomes):
         try:
-            out[case] = jf.read_F(value_of("eightpoint", o))
+            out[case] = read_returned("eightpoint", o, jf.read_F, _args(case))
         except Malformed as exc:
             out[case] = exc
     return out
 
 
 @pytest.fixture(scope="session")
-def eightpoint_fits(fundamental, eightpoint_F) -> dict:
-    """judging.fundamental.fit of every scene's F (judged once for the checks that need it), by case."""
-    return {c: jf.fit(eightpoint_F[c], c.eval1, c.eval2, c.goal, c.M)
-            for c in fundamental.cases if not isinstance(eightpoint_F[c], Malformed)}
+def eightpoint_F(student, fundamental) -> dict:
+    """The F of every case as eightpoint returns it, by case."""
+    return request_F(student, fundamental)
 
 
 @pytest.fixture(scope="session")
-def eightpoint_exact(fundamental, eightpoint_F):
-    """judging.fundamental.exact_fit of the noise-free matches' F, or the Malformed."""
-    F = eightpoint_F[fundamental.exact]
-    return F if isinstance(F, Malformed) else jf.exact_fit(F, fundamental.exact.eval1, fundamental.exact.eval2,
-                                                           fundamental.exact.M)
+def eightpoint_F_off(student, fundamental) -> dict:
+    """The F of every case with refineF switched off inside the sandbox, by case."""
+    return request_F(student, fundamental, {"refineF": "identity"})
+
+
+def _judge(judgment, F, *args):
+    return F if isinstance(F, Malformed) else judgment(F, *args)
+
+
+def _passed(v) -> bool:
+    return not isinstance(v, Malformed) and v.passed
+
+
+def _mistakes(*verdicts) -> list:
+    return [m for v in verdicts if not isinstance(v, Malformed) for m in v.mistakes]
+
+
+def _how_called(cases, *, off: bool = False) -> list[str]:
+    """One line per kind of call among ``cases``: how eightpoint was called (argument kinds only)."""
+    seen = dict.fromkeys(called_as("eightpoint", None, _args(c)) for c in cases)
+    return [f"eightpoint was {call}" + (f", as given and {_OFF}" if off else "") for call in seen]
+
+
+def judge_q2(p, F: dict, F_off: dict) -> dict:
+    """The grade of each Q2 test: ``{"fits" | "rank" | "exact" | "uint16": (fraction, lines, mistakes)}``.
+
+    p : the prepared inputs (``cases.fundamental.Fundamental``); F, F_off : by case (``_all_cases``),
+    the student's F (3, 3) or the Malformed saying why there is none, as returned and with refineF
+    switched off.  Pure: the tests below and tests/test_fundamental_goals.py grade with it.
+    """
+    fits = {c: jf.fit(F[c], c.eval1, c.eval2, c.goal, c.M) for c in p.cases if not isinstance(F[c], Malformed)}
+    exact = {c: (_judge(jf.exact_fit, F[c], c.eval1, c.eval2, c.M), _judge(jf.exact_fit, F_off[c], c.eval1, c.eval2, c.M))
+             for c in p.exact}
+    # The noise-free matches name a mistake best: as returned first, then with refineF off.
+    named = _mistakes(*(on for on, _ in exact.values())) or _mistakes(*(off for _, off in exact.values()))
+    return {"fits": _fits(p, F, fits, named), "rank": _rank(p, F, F_off, fits), "exact": _exact(exact, named),
+            "uint16": _uint16(p, F, F_off, fits)}
+
+
+def _fits(p, F, fits, named):
+    lines, mistakes, judged_wrong = [], [], []
+    for case in p.cases:
+        v = fits.get(case)
+        if v is None:
+            lines.append(f"{case.label}: {F[case]}")
+            continue
+        mistakes += v.mistakes
+        if not v.passed:
+            judged_wrong.append(case)
+        lines.append(f"{case.label}: {v.sentence}{'' if v.passed else ': too far'}")
+    right = sum(v.passed for v in fits.values())
+    return right / len(p.cases), lines + _how_called(judged_wrong), named or mistakes
+
+
+def _rank(p, F, F_off, fits):
+    right, lines, mistakes, judged_wrong = 0, [], [], []
+    for case in p.cases:
+        fit = fits.get(case)
+        if fit is None:
+            continue
+        on = jf.rank_two(F[case], case.M)
+        off = _judge(jf.rank_two, F_off[case], case.M)
+        mistakes += _mistakes(on, off)
+        ok = on.passed and _passed(off)
+        right += ok and fit.passed
+        text = f"{case.label}: {on.measured}"
+        if not _passed(off):
+            text += f"; {_OFF}: {off if isinstance(off, Malformed) else off.measured}"
+        if ok and not fit.passed:
+            text += ", but F does not fit the scene"
+        if not ok:
+            judged_wrong.append(case)
+        lines.append(text)
+    if not lines:
+        lines.append(next((str(v) for v in F.values() if isinstance(v, Malformed)), "no F to check"))
+    return right / len(p.cases), lines + _how_called(judged_wrong, off=True), mistakes
+
+
+def _exact(exact, named):
+    right, lines, judged_wrong = 0, [], []
+    for case, (on, off) in exact.items():
+        right += _passed(on) and _passed(off)
+        for v, how in ((on, ""), (off, f", {_OFF}")):
+            if isinstance(v, Malformed):
+                lines.append(f"{case.label}{how}: {v}")
+            elif not v.passed or not how:
+                lines.append(f"{case.label}{how}: {v.sentence}")
+                judged_wrong += [] if v.passed else [case]
+    if not all(_passed(off) for _, off in exact.values()):
+        lines.append(f"refineF was {_OFF_NOTE}")
+    return right / len(exact), lines + _how_called(judged_wrong, off=True), named
+
+
+def _uint16(p, F, F_off, fits):
+    u16, twin = p.uint16, p.float_twin()
+    fit = fits.get(twin)
+    lines, verdicts = [], []
+    for Fs, how in ((F, ""), (F_off, f", {_OFF}")):
+        if isinstance(Fs[u16], Malformed):
+            lines.append(f"{u16.label}{how}: {Fs[u16]}")
+            continue
+        # Like rank 2, this counts only for an F of the scene: a constant answer is the same for any input.
+        usable = fit is not None and not isinstance(Fs[twin], Malformed)
+        v = jf.uint16_same(Fs[u16], Fs[twin] if usable else np.zeros((3, 3)))
+        verdicts.append(v)
+        lines.append(f"{u16.label}{how}: {v.sentence}")
+    fits_too = fit is not None and fit.passed
+    ok = len(verdicts) == 2 and all(v.passed for v in verdicts) and fits_too
+    if not fits_too:
+        lines.append(f"{twin.label}: the F of the float points does not fit, so uint16 earns nothing either")
+    if not ok:
+        lines += _how_called([u16, twin], off=True)
+    return float(ok), lines, _mistakes(*verdicts)
 
 
 @pytest.fixture(scope="session")
-def eightpoint_exact_off(student, fundamental):
-    """judging.fundamental.exact_fit of the noise-free matches' F with refineF switched off, or the Malformed."""
-    c = fundamental.exact
-    o = student.each("eightpoint", [(c.pts1, c.pts2, c.M)], seconds=SECONDS["eightpoint"],
-                     slack=5 * student.time_scale + 2, swap={"refineF": "identity"})[0]
-    try:
-        F = jf.read_F(value_of("eightpoint", o))
-    except Malformed as exc:
-        return exc
-    return jf.exact_fit(F, c.eval1, c.eval2, c.M)
+def q2(fundamental, eightpoint_F, eightpoint_F_off) -> dict:
+    """``judge_q2`` of the student's F's: every Q2 test's grade, judged once."""
+    return judge_q2(fundamental, eightpoint_F, eightpoint_F_off)
 
 
 @pytest.mark.points(5, question="Q2", name="F fits the true matches of every scene")
-def test_F_fits_the_true_matches(fundamental, eightpoint_F, eightpoint_fits, eightpoint_exact, eightpoint_exact_off,
-                                 score):
-    lines, mistakes = [], []
-    for case in fundamental.cases:
-        v = eightpoint_fits.get(case)
-        if v is None:
-            lines.append(f"{case.label}: {eightpoint_F[case]}")
-            continue
-        mistakes += v.mistakes
-        lines.append(f"{case.label}: {v.sentence}{'' if v.passed else ': too far'}")
-    exact = [] if isinstance(eightpoint_exact, Malformed) else list(eightpoint_exact.mistakes)
-    if not exact and not isinstance(eightpoint_exact_off, Malformed):
-        exact = list(eightpoint_exact_off.mistakes)
-    right = sum(v.passed for v in eightpoint_fits.values())
-    score.grade(right / len(fundamental.cases), lines, exact or mistakes)
+def test_F_fits_the_true_matches(q2, score):
+    score.grade(*q2["fits"])
 
 
 @pytest.mark.points(2, question="Q2", name="F has rank 2 (counted where F fits)")
-def test_F_has_rank_2(fundamental, eightpoint_F, eightpoint_fits, score):
-    right, lines, mistakes = 0, [], []
-    for case in fundamental.cases:
-        fit = eightpoint_fits.get(case)
-        if fit is None:
-            continue
-        r = jf.rank_two(eightpoint_F[case], case.M)
-        mistakes += r.mistakes
-        right += r.passed and fit.passed
-        lines.append(f"{case.label}: {r.measured}" + ("" if fit.passed or not r.passed else
-                                                      ", but F does not fit the scene"))
-    if not lines:
-        lines.append(next((str(F) for F in eightpoint_F.values() if isinstance(F, Malformed)), "no F to check"))
-    score.grade(right / len(fundamental.cases), lines, mistakes)
+def test_F_has_rank_2(q2, score):
+    score.grade(*q2["rank"])
 
 
 @pytest.mark.points(2, question="Q2", name="noise-free matches give an exact F")
-def test_noise_free_matches_give_an_exact_F(eightpoint_exact, eightpoint_exact_off, score):
-    if isinstance(eightpoint_exact, Malformed):
-        score.grade(0.0, [str(eightpoint_exact)])
-    off = eightpoint_exact_off
-    if isinstance(off, Malformed):
-        score.grade(0.0, [eightpoint_exact.sentence, f"with refineF switched off: {off}"])
-    lines = [eightpoint_exact.sentence, f"with refineF switched off: {off.sentence}"]
-    mistakes = eightpoint_exact.mistakes or off.mistakes
-    score.grade(float(eightpoint_exact.passed and off.passed), lines, mistakes)
+def test_noise_free_matches_give_an_exact_F(q2, score):
+    score.grade(*q2["exact"])
 
 
 @pytest.mark.points(1, question="Q2", name="the data files' uint16 points work as well as float ones")
-def test_uint16_points_work_as_float_ones(fundamental, eightpoint_F, eightpoint_fits, score):
-    u16 = fundamental.uint16
-    base = next(c for c in fundamental.cases if c.label == u16.label.rsplit(",", 1)[0])
-    F16 = eightpoint_F[u16]
-    if isinstance(F16, Malformed):
-        score.grade(0.0, [str(F16)])
-    fit = eightpoint_fits.get(base)
-    # Like rank 2, this counts only for an F of the scene: a constant answer is the same for any input.
-    v = jf.uint16_same(F16, eightpoint_F[base] if fit is not None else np.zeros((3, 3)))
-    fits = fit is not None and fit.passed
-    score.grade(float(v.passed and fits), [f"{u16.label}: {v.sentence}" + (
-        "" if fits else ", but the F of the float points does not fit")], v.mistakes)
+def test_uint16_points_work_as_float_ones(q2, score):
+    score.grade(*q2["uint16"])

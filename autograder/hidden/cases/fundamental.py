@@ -1,5 +1,15 @@
-"""Q2: the inputs of ``eightpoint`` (hidden scenes, the default data, the official data, noise-free and uint16 matches) and the fit goals.
+"""Q2: the inputs of ``eightpoint`` and their goals.
 
+- ``cases``: noisy matches (the hidden scenes, the last hidden scene enlarged, the default data,
+  the official data), each with the true matches F is evaluated on and the goal of
+  ``judging.fundamental.fit``: FIT_FACTOR times the larger of the reference's RMS distance (the
+  handout's method with and without refineF) and the noise the scene was made with.
+- ``exact``: noise-free matches (of every hidden scene, of the exact two-view scene whose cameras
+  have different intrinsics, of the enlarged scene), where F is exact up to EXACT_TOL * M.
+- ``uint16``: the enlarged scene's matches as uint16, every coordinate above 256 in both images,
+  so that any product of two wraps around in uint16 arithmetic.
+
+The Q2 tests call eightpoint on all of them as given and again with refineF switched off.
 Conventions: pixels (x, y) = (column, row); M = [R | t] world -> camera; C = K M.  Nothing here
 reaches a student.
 """
@@ -15,10 +25,22 @@ from judging import fundamental as jf
 
 from ..scenes import Scenes
 
+__all__ = ["Fundamental", "FundamentalCase", "prepare_fundamental"]
+
 
 @dataclass(frozen=True, eq=False)
 class FundamentalCase:
-    """One eightpoint input: pts1, pts2 (N, 2), M; eval1, eval2 (P, 2) true matches; goal in px."""
+    """One eightpoint input and what F is judged on.
+
+    pts1, pts2 : (N, 2) the matches eightpoint gets (float64, or uint16 for ``Fundamental.uint16``).
+    M : the scale eightpoint gets (the larger side of the image).
+    eval1, eval2 : (P, 2) the matches F is judged on (true ones when known), pixels.
+    goal : pixels; the fit goal for noisy matches, EXACT_TOL * M for noise-free ones.
+    noise : the noise (pixels) of pts1, pts2 about the exact projections (0 for noise-free
+        matches), None when unknown (the official data).
+    reference : the RMS distances (pixels) of eval1, eval2 to the reference's F, with and
+        without refineF (empty for noise-free matches).
+    """
 
     label: str
     pts1: np.ndarray
@@ -27,25 +49,27 @@ class FundamentalCase:
     eval1: np.ndarray
     eval2: np.ndarray
     goal: float
+    noise: float | None = None
+    reference: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
 class Fundamental:
-    cases: tuple[FundamentalCase, ...]     # hidden scenes, the default data, the official data
-    exact: FundamentalCase                 # noise-free matches
-    uint16: FundamentalCase                # a scene's matches as the data files' uint16
+    cases: tuple[FundamentalCase, ...]     # noisy: hidden scenes, the enlarged one, the default and official data
+    exact: tuple[FundamentalCase, ...]     # noise-free matches
+    uint16: FundamentalCase                # the enlarged scene's matches as uint16; its float twin is in cases
+
+    @property
+    def calls(self) -> int:
+        """How many times the Q2 tests call eightpoint: every input as given and with refineF off."""
+        return 2 * (len(self.cases) + len(self.exact) + 1)
+
+    def float_twin(self) -> FundamentalCase:
+        """The case of ``cases`` with the same points as ``uint16``, as float64."""
+        return next(c for c in self.cases if c.label == self.uint16.label.rsplit(",", 1)[0])
 
 
-_EXACT_TOL_PX = 0.05
-
-
-def _hartley(pts1, pts2):
-    """F by the reference eight-point with Hartley's normalisation instead of 1/M (a valid variant)."""
-    from solutions import eightpoint
-    from starter.ransac import eightpoint_hartley
-
-    F = eightpoint_hartley(lambda a, b, M: eightpoint(a, b, M, refine=False), pts1, pts2)
-    return F / np.linalg.norm(F)
+_ENLARGED = "enlarged"
 
 
 def _rms(F, eval1, eval2) -> float:
@@ -53,34 +77,62 @@ def _rms(F, eval1, eval2) -> float:
     return float(np.sqrt(np.mean(d ** 2)))
 
 
-def _evaluation_matches(case) -> tuple[np.ndarray, np.ndarray]:
-    if not case.has_truth:
-        return case.pts1, case.pts2  # no ground truth: the given matches, as the handout uses them
-    s = case.scene
-    keep = s.visible2
-    return np.column_stack([s.x1, s.y1]).astype(float)[keep], s.x2_true[keep]
-
-
-def _fundamental_case(label, pts1, pts2, M, eval1, eval2) -> FundamentalCase:
+def _reference_rms(pts1, pts2, M, eval1, eval2) -> tuple[float, float]:
+    """RMS distances of the evaluation matches to the reference's F with and without refineF."""
     from solutions import eightpoint
 
     p1, p2 = np.asarray(pts1, float), np.asarray(pts2, float)
-    variants = [eightpoint(p1, p2, M), eightpoint(p1, p2, M, refine=False), _hartley(p1, p2)]
-    worst = max(_rms(F, eval1, eval2) for F in variants)
-    return FundamentalCase(label, pts1, pts2, float(M), eval1, eval2, jf.fit_goal([worst]))
+    return (_rms(eightpoint(p1, p2, M), eval1, eval2), _rms(eightpoint(p1, p2, M, refine=False), eval1, eval2))
+
+
+def _noisy_case(label, pts1, pts2, M, eval1, eval2, noise) -> FundamentalCase:
+    ref = _reference_rms(pts1, pts2, M, eval1, eval2)
+    return FundamentalCase(label, np.asarray(pts1, float), np.asarray(pts2, float), float(M),
+                           np.asarray(eval1, float), np.asarray(eval2, float), jf.fit_goal(ref, noise), noise, ref)
+
+
+def _exact_case(label, pts1, pts2, M) -> FundamentalCase:
+    p1, p2 = np.array(pts1, dtype=float), np.array(pts2, dtype=float)
+    return FundamentalCase(label, p1, p2, float(M), p1.copy(), p2.copy(), jf.EXACT_TOL * float(M), 0.0)
+
+
+def _temple_case(tc) -> FundamentalCase:
+    if not tc.has_truth:
+        # No ground truth: the given matches, as the handout uses them; no known noise.
+        return _noisy_case(tc.label, tc.pts1, tc.pts2, tc.M, tc.pts1, tc.pts2, None)
+    s = tc.scene
+    keep = s.visible2
+    e1, e2 = np.column_stack([s.x1, s.y1]).astype(float)[keep], s.x2_true[keep]
+    return _noisy_case(tc.label, tc.pts1, tc.pts2, tc.M, e1, e2, jf.noise_of(s.pts1, s.pts2, s.pts1_true, s.pts2_true))
+
+
+def _enlarged_cases(tc) -> tuple[FundamentalCase, FundamentalCase, FundamentalCase]:
+    """(noisy float, uint16, noise-free) cases of the temple case ``tc`` seen by enlarged cameras
+    (judging.fundamental.enlarged): every coordinate above 256 in both images."""
+    s = tc.scene
+    label = f"{tc.label}, {_ENLARGED}"
+    p1, M = jf.enlarged(np.asarray(s.pts1), s.M)
+    p2, _ = jf.enlarged(np.asarray(s.pts2), s.M)
+    keep = s.visible2
+    e1, _ = jf.enlarged(np.column_stack([s.x1, s.y1]).astype(float)[keep], s.M)
+    e2, _ = jf.enlarged(s.x2_true[keep], s.M)
+    x1, _ = jf.enlarged(s.pts1_true, s.M)
+    x2, _ = jf.enlarged(s.pts2_true, s.M)
+    noisy = _noisy_case(label, p1, p2, M, e1, e2, jf.noise_of(p1, p2, x1, x2))
+    u16 = FundamentalCase(f"{label}, as uint16", p1.astype(np.uint16), p2.astype(np.uint16), M, e1, e2, noisy.goal,
+                          noisy.noise, noisy.reference)
+    return noisy, u16, _exact_case(f"noise-free matches of {label}", x1, x2, M)
 
 
 def prepare_fundamental(scenes: Scenes) -> Fundamental:
-    cases = []
-    for tc in scenes.temple_cases():
-        e1, e2 = _evaluation_matches(tc)
-        cases.append(_fundamental_case(tc.label, tc.pts1, tc.pts2, tc.M, e1, e2))
-    base = scenes.default or scenes.hidden[-1]
-    s = base.scene
-    exact = FundamentalCase("noise-free matches", s.pts1_true.copy(), s.pts2_true.copy(), float(s.M),
-                            s.pts1_true, s.pts2_true, _EXACT_TOL_PX)
-    e1, e2 = _evaluation_matches(base)
-    ref = next(c for c in cases if c.label == base.label)
-    uint16 = FundamentalCase(f"{base.label}, as uint16", s.pts1.astype(np.uint16), s.pts2.astype(np.uint16),
-                             float(s.M), e1, e2, ref.goal)
-    return Fundamental(tuple(cases), exact, uint16)
+    temple = scenes.temple_cases()
+    cases = [_temple_case(tc) for tc in temple]
+    big, u16, big_exact = _enlarged_cases(scenes.hidden[-1])
+    cases.insert(len(scenes.hidden), big)   # after the hidden scenes: the fixed data come last
+    exact = [_exact_case(f"noise-free matches of {tc.label}", tc.scene.pts1_true, tc.scene.pts2_true, tc.M)
+             for tc in scenes.hidden]
+    tv = scenes.two_view
+    exact.append(_exact_case("noise-free matches, cameras with different intrinsics", tv.pts1, tv.pts2,
+                             scenes.hidden[-1].M))
+    exact.append(big_exact)
+    return Fundamental(tuple(cases), tuple(exact), u16)
