@@ -1,7 +1,7 @@
 """Same verdicts everywhere: five corpus submissions graded by the CLI (``python -m autograder
 grade``), by Gradescope's ``run_autograder`` in a folder laid out like /autograder, and by the
 nbgrader course (``nbgrader autograde`` then ``python -m autograder nbgrader-grade``) get
-identical per-question scores.  Slow: about five minutes on two cores.
+identical per-question scores, each on its own hidden draw, the same draw in every channel.  Slow: about five minutes on two cores.
 """
 
 from __future__ import annotations
@@ -57,14 +57,20 @@ def cli_scores(setup) -> dict:
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     with open(out / "grades.csv", newline="") as fh:
         rows = {r["student_id"]: r for r in csv.DictReader(fh)}
-    return {name: {q: float(rows[name][q]) for q in QIDS} for name in FIVE}
+    draws = {name: _draw(json.loads((out / name / "results.json").read_text())) for name in FIVE}
+    return {name: {q: float(rows[name][q]) for q in QIDS} for name in FIVE}, draws
+
+
+def _draw(results_json: dict):
+    """The digest of the hidden draw a results.json says the submission was graded on."""
+    return ((results_json.get("extra_data") or {}).get("configuration") or {}).get("draw")
 
 
 def gradescope_scores(setup, monkeypatch) -> dict:
     monkeypatch.setenv("HW4_GRADER_CONFIG", str(setup["config"]))
     monkeypatch.delenv("HW4_GRADER_SECRET", raising=False)
     bundle = gradescope.build_bundle(setup["root"] / "autograder.zip", time_limit=600)
-    out = {}
+    out, draws = {}, {}
     for name, folder in setup["subs"].items():
         ag = unpack(bundle, setup["root"] / "gradescope" / name)
         for p in sorted(folder.glob("*.ipynb")):
@@ -72,7 +78,8 @@ def gradescope_scores(setup, monkeypatch) -> dict:
         data = run_autograder(ag)
         scored = {t["name"].split()[0]: float(t["score"]) for t in data["tests"] if "score" in t}
         out[name] = {q: scored.get(q, 0.0) for q in QIDS}
-    return out
+        draws[name] = _draw(data)
+    return out, draws
 
 
 def nbgrader_scores(setup, monkeypatch) -> dict:
@@ -88,14 +95,18 @@ def nbgrader_scores(setup, monkeypatch) -> dict:
         for p in sorted(folder.glob("*.ipynb")):
             shutil.copy2(p, target / p.name)
     nc.run_nbgrader(course, "autograde", "hw4", "--force", timeout=3600)
-    nc.grade_course(course, config=load_config())
-    return {name: {q: nc.kit_scores(course, name).get(q, 0.0) for q in QIDS} for name in FIVE}
+    results = nc.grade_course(course, config=load_config())
+    draws = {name: (results[name].configuration or {}).get("draw") for name in FIVE}
+    return {name: {q: nc.kit_scores(course, name).get(q, 0.0) for q in QIDS} for name in FIVE}, draws
 
 
 def test_cli_gradescope_and_nbgrader_give_the_same_scores(setup, monkeypatch):
-    cli = cli_scores(setup)
-    gs = gradescope_scores(setup, monkeypatch)
-    nb = nbgrader_scores(setup, monkeypatch)
+    cli, cli_draws = cli_scores(setup)
+    gs, gs_draws = gradescope_scores(setup, monkeypatch)
+    nb, nb_draws = nbgrader_scores(setup, monkeypatch)
+    # Each submission is graded on its own hidden draw, the same whichever channel grades it.
+    assert cli_draws == gs_draws == nb_draws and len(set(cli_draws.values())) == len(FIVE), (cli_draws, gs_draws,
+                                                                                            nb_draws)
     # Each channel publishes at its own precision (grades.csv 4 decimals, results.json 6, the
     # gradebook a float): the scores must be the same at the coarsest of them.
     def published(scores):
