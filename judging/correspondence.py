@@ -13,7 +13,8 @@ import numpy as np
 from core.geometry import project
 
 from .mistakes import points_behind_cameras, points_xy_swapped
-from .verdict import Malformed, Verdict, read_array, read_number, share_score
+from .triangulation import LINEAR_SLACK, reprojection_error
+from .verdict import Malformed, Verdict, fmt, read_array, read_number, share_score
 
 __all__ = ["FLOOR", "GOAL", "PTS2_SHARE", "matches", "points3d", "pts2_reported", "read_match", "read_points",
            "read_points_pts2", "right_2d", "right_3d", "tolerance"]
@@ -48,11 +49,16 @@ def read_points_pts2(value, n: int) -> tuple[np.ndarray, object]:
     return read_points(value, n), pts2
 
 
-def pts2_reported(pts2, w, C1, pts1, C2, tol: float) -> Verdict:
-    """pts2 (N, 2), returned with w (N, 3), are the matches w was triangulated from: w reprojects
-    within ``tol`` px of pts1 (N, 2) through C1 and of pts2 through C2 (:func:`right_3d`) for a share
-    >= PTS2_SHARE of the points (a match off its epipolar line leaves a residual in both images).
-    Names points_xy_swapped when pts2 holds (y, x)."""
+def pts2_reported(pts2, w, C1, pts1, C2, tol: float, linear_error=None) -> Verdict:
+    """pts2 (N, 2), returned with w (N, 3), are the matches w was triangulated from.
+
+    Passed when w reprojects within ``tol`` px of pts1 (N, 2) through C1 and of pts2 through C2
+    (:func:`right_3d`) for a share >= PTS2_SHARE of the points, or, for matches off their epipolar
+    lines (which no point reprojects onto), when w's total squared reprojection error on (pts1,
+    pts2) is at most LINEAR_SLACK times that of a linear triangulation of them, ``linear_error(C1,
+    pts1, C2, pts2) -> float`` (the reference's in the grader; None: not tried).  Names
+    points_xy_swapped when pts2 holds (y, x).
+    """
     what = "pts2 are the matches w was triangulated from"
     w = np.asarray(w, float)
     try:
@@ -62,12 +68,18 @@ def pts2_reported(pts2, w, C1, pts1, C2, tol: float) -> Verdict:
     right = right_3d(w, C1, C2, pts1, pts2, tol)
     share = float(right.mean()) if len(right) else 0.0
     ok = share >= PTS2_SHARE
+    lines = []
+    if not ok and linear_error is not None and np.all(np.isfinite(pts2)):
+        err, goal = reprojection_error(C1, pts1, C2, pts2, w), LINEAR_SLACK * float(linear_error(C1, pts1, C2, pts2))
+        ok = err <= goal + 1e-6 * max(len(w), 1)
+        lines.append(f"reprojection error of w on pts1 and your pts2: {fmt(err)} px^2 (a linear triangulation "
+                     f"of them: {fmt(goal / LINEAR_SLACK)} px^2)")
     swapped = None
     if not ok and np.all(np.isfinite(w)):
         with np.errstate(all="ignore"):
             swapped = points_xy_swapped(np.nan_to_num(pts2, nan=-1e9), project(C2, w), tol)
     return Verdict.of(what, ok, f"{int(right.sum())} of {len(right)} of your points reproject within {tol:g} px "
-                                f"of pts1 and of your pts2", f">= {PTS2_SHARE:.0%}", [swapped])
+                                f"of pts1 and of your pts2", f">= {PTS2_SHARE:.0%}", [swapped], lines)
 
 
 def _goal(share: float, ref_share: float, tol: float, n_right: int, n: int, what: str, mistakes=()) -> Verdict:

@@ -36,38 +36,39 @@ def read_P_err(value, n: int) -> tuple[np.ndarray, object]:
     return read_array(value, (n, 3), "P"), None
 
 
-def _used(P, Cs, pts, Thres) -> tuple[np.ndarray, np.ndarray]:
-    """(used (N, V) bool, residuals (N, V, 2) of P's projections from the detections).
-
-    A detection is used when it is above Thres, its keypoint has two or more such detections and
-    its point in P is finite (a keypoint left NaN reports no error)."""
+def _squared(P, Cs, pts, Thres) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(confident (N, V) bool: above Thres, finite (N,) bool: keypoints with a finite point in P,
+    squared distances (N, V) of P's projections from the detections, residuals (N, V, 2))."""
     P = np.asarray(P, float)
     xy = np.stack([np.asarray(p, float)[:, :2] for p in pts], axis=1)                  # (N, V, 2)
-    used = np.stack([np.asarray(p, float)[:, 2] > Thres for p in pts], axis=1)         # (N, V)
-    used &= (used.sum(axis=1) >= 2)[:, None] & np.all(np.isfinite(P), axis=1)[:, None]
+    confident = np.stack([np.asarray(p, float)[:, 2] > Thres for p in pts], axis=1)    # (N, V)
     with np.errstate(all="ignore"):
         r = np.stack([xy[:, v] - project(Cs[v], P) for v in range(len(pts))], axis=1)
-    return used, r
+        sq = np.sum(r ** 2, axis=2)
+    return confident, np.all(np.isfinite(P), axis=1), sq, r
 
 
 def err_bounds(P, Cs, pts, Thres) -> tuple[float, float]:
-    """(lowest, highest) total squared reprojection error (pixels^2) of P (N, 3) over the detections
-    used (see ``_used``; pts: three (N, 3) arrays [x, y, confidence], Cs: three (3, 4) cameras):
-    each keypoint from its two best-fitting used views (a method that uses two of three) to all of
-    them; inf when a used detection's projection is not finite."""
-    used, r = _used(P, Cs, pts, Thres)
-    with np.errstate(all="ignore"):
-        sq = np.sum(r ** 2, axis=2)
-    if not np.all(np.isfinite(sq[used])):
+    """(lowest, highest) total squared reprojection error (pixels^2) that P (N, 3) can report over
+    the detections it used (pts: three (N, 3) arrays [x, y, confidence], Cs: three (3, 4) cameras).
+
+    Which detections a student used is the threshold checks' business, so the bounds take any
+    choice: from the two best-fitting detections above Thres of each keypoint seen so twice or
+    more (a method using two of three views) to every detection of every keypoint P holds; a
+    keypoint left NaN counts nothing.  inf when such a detection's projection is not finite.
+    """
+    confident, finite, sq, _ = _squared(P, Cs, pts, Thres)
+    if not np.all(np.isfinite(sq[finite])):
         return float("inf"), float("inf")
-    rows = used.any(axis=1)
-    two = np.sort(np.where(used, sq, np.inf)[rows], axis=1)[:, :2]
-    return float(np.sum(two)), float(np.sum(sq[used]))
+    rows = finite & (confident.sum(axis=1) >= 2)
+    two = np.sort(np.where(confident, sq, np.inf)[rows], axis=1)[:, :2]
+    return float(np.sum(two)), float(np.sum(sq[finite]))
 
 
 def err_reported(err, P, Cs, pts, Thres) -> Verdict:
     """err is the total squared reprojection error of the returned P (N, 3) over the detections used
-    (:func:`err_bounds`, relative ERR_RTOL plus 1e-6 px^2 a keypoint); names error_not_sum_of_squares."""
+    (within :func:`err_bounds`, relative ERR_RTOL plus 1e-6 px^2 a keypoint); names
+    error_not_sum_of_squares (against the detections above Thres)."""
     what = "err is the total squared reprojection error of P over the detections used"
     if err is None:
         return Verdict.of(what, False, "MultiviewReconstruction returned P alone", "(P, err)")
@@ -83,7 +84,8 @@ def err_reported(err, P, Cs, pts, Thres) -> Verdict:
     goal = fmt(high) if np.isclose(low, high, rtol=ERR_RTOL) else f"{fmt(low)} to {fmt(high)}"
     found = []
     if not ok:
-        used, r = _used(P, Cs, pts, Thres)
+        confident, finite, _, r = _squared(P, Cs, pts, Thres)
+        used = confident & finite[:, None] & (confident.sum(axis=1) >= 2)[:, None]
         found.append(error_not_sum_of_squares(e, r[used], np.zeros((0, 2)), rtol=ERR_RTOL))
     return Verdict.of(what, ok, f"err = {fmt(e)} px^2", f"{goal} px^2 from your P", found)
 

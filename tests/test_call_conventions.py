@@ -185,6 +185,26 @@ def test_a_companion_value_is_judged_against_the_returned_points(hidden, functio
     assert [t.name for t in q.tests if t.score < t.max_score] == [check], [(t.name, t.feedback) for t in q.tests]
 
 
+def test_pts2_judged_as_the_matches_w_was_triangulated_from(hidden):
+    import numpy as np
+
+    from judging import correspondence as jc
+    from solutions import triangulate
+
+    def linear(C1, pts1, C2, pts2):
+        return triangulate(C1, pts1, C2, pts2)[1]
+
+    c = hidden.prepared["correspondence"].points_case
+    off = c.truth2 + np.random.default_rng(3).normal(0, 1.0, c.truth2.shape)   # matches off their lines
+    for pts2 in (c.truth2, np.rint(c.truth2), off, off[:, ::-1]):
+        w = triangulate(c.C1, c.pts1, c.C2, pts2)[0]
+        assert jc.pts2_reported(pts2, w, c.C1, c.pts1, c.C2, c.tol, linear).passed
+    w = triangulate(c.C1, c.pts1, c.C2, c.truth2)[0]
+    v = jc.pts2_reported(c.pts1, w, c.C1, c.pts1, c.C2, c.tol, linear)
+    assert not v.passed and v.fraction == 0, v.sentence
+    assert not jc.pts2_reported(c.truth2[:, ::-1], w, c.C1, c.pts1, c.C2, c.tol, linear).passed
+
+
 def test_the_reference_err_passes_with_two_or_three_views(hidden):
     from judging import multiview as jm
     from solutions import MultiviewReconstruction

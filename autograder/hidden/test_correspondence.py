@@ -205,6 +205,18 @@ def _five_argument_points(student, c, n):
     return None, "", problem
 
 
+def _linear_error(C1, pts1, C2, pts2) -> float:
+    """The total squared reprojection error of the reference's linear triangulation of the matches
+    (NaN, which no error is below, when they cannot be triangulated)."""
+    from solutions import triangulate
+
+    try:
+        with np.errstate(all="ignore"):
+            return float(triangulate(C1, pts1, C2, pts2)[1])
+    except (ValueError, np.linalg.LinAlgError):
+        return float("nan")
+
+
 @dataclass(frozen=True)
 class TemplePoints:
     """Q4.2's result: the verdict of the 3D points counted (None: no route gave points), the feedback
@@ -240,7 +252,7 @@ def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
             continue
         if direct_v is None or v.fraction > direct_v.fraction:
             direct_v, direct_how = v, how
-            direct_pts2 = None if pts2 is None else jc.pts2_reported(pts2, w, c.C1, c.pts1, c.C2, c.tol)
+            direct_pts2 = None if pts2 is None else jc.pts2_reported(pts2, w, c.C1, c.pts1, c.C2, c.tol, _linear_error)
         if v.passed:
             break
     w, pipe_problem = _pipeline(student, c, matched[c])
@@ -275,4 +287,4 @@ def test_pts2_are_the_matches_of_w(correspondence, temple_points, score):
     if v is None:
         score.grade(1.0, ["no pts2 was returned with the points that counted: nothing to check"])
         return
-    score.grade(v.fraction, [f"{correspondence.points_case.label}: {v.sentence}"], v.mistakes)
+    score.grade(v.fraction, [f"{correspondence.points_case.label}: {v.sentence}", *v.lines], v.mistakes)
