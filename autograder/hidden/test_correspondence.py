@@ -280,11 +280,15 @@ def test_3D_points_of_the_temple(correspondence, temple_points, score):
 
 @pytest.mark.points(1, question="Q4.2", name="pts2 are the matches w was triangulated from")
 def test_pts2_are_the_matches_of_w(correspondence, temple_points, score):
-    """Judged when compute3D_pts returned (w, pts2) and its points counted; nothing to contradict otherwise."""
-    if temple_points.points is None:
+    """Judged when compute3D_pts returned (w, pts2) and its points counted.  Without a pts2 (w alone,
+    another year's P, the matcher and triangulate) the point follows the 3D points' share, as when
+    Q4.2 was one check; with no right point at all, consistency earns nothing."""
+    points, v = temple_points.points, temple_points.pts2
+    if points is None:
         score.grade(0.0, list(temple_points.lines))
-    v = temple_points.pts2
+    if points.fraction <= 0:
+        score.grade(0.0, ["no 3D point is right: nothing to check pts2 against"])
     if v is None:
-        score.grade(1.0, ["no pts2 was returned with the points that counted: nothing to check"])
+        score.grade(points.fraction, ["no pts2 was returned with the points that counted: this point follows theirs"])
         return
     score.grade(v.fraction, [f"{correspondence.points_case.label}: {v.sentence}", *v.lines], v.mistakes)
