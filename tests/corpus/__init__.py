@@ -233,18 +233,19 @@ def build(name: str, folder: str | Path, *, out: str | Path = "/nonexistent-grad
     return target
 
 
-def program_namespace(name: str, homework) -> dict:
+def program_namespace(name: str, homework, case: Case | None = None) -> dict:
     """The namespace a corpus submission's kept statements make, executed here in the kit's tests.
 
     The statements are the ones the grader keeps (``core.notebook.definitions``), run in notebook
     order; one that fails costs nothing, as in the grader.  ``homework``: the function names that
-    count as the homework's.  Only the kit's own tests do this: the grader runs submissions in
-    its sandbox, never in its own process.
+    count as the homework's.  ``case``: a submission not in ``CASES`` (e.g. the key with one cell
+    of variants.py in place), named ``name``.  Only the kit's own tests do this: the grader runs
+    submissions in its sandbox, never in its own process.
     """
     from core.manifest import NOTEBOOKS
     from core.notebook import definitions, python_cells
 
-    case = CASES[name]
+    case = CASES[name] if case is None else case
     nbs = notebooks(case.base)
     case.mutate(nbs, {"kit": str(KIT_ROOT), "out": "/nonexistent", "name": name, "trap": "/nonexistent"})
     namespace: dict = {"__name__": f"corpus_{name}"}
