@@ -441,3 +441,21 @@ def test_every_function_hanging_still_gets_feedback_per_test(gradescope_dir, tmp
     assert checks and all(t["status"] == "failed" for t in checks)
     assert all("took more than" in t["output"] or "not run" in t["output"] or "did not finish" in t["output"]
                or "time" in t["output"] for t in checks), [t["output"] for t in checks]
+
+
+@pytest.mark.slow
+def test_a_time_limit_below_the_session_budget_ends_the_session_before_it(gradescope_dir, tmp_path):
+    # run_autograder passes its limit on; the grader's session must end before the shell's kill, so
+    # the checks that ran are reported by the grader (not the shell's fallback zero).
+    from tests.corpus.hangs import build_all_hang
+
+    limit = 45
+    put(gradescope_dir, *sorted(build_all_hang(tmp_path / "hang").glob("*.ipynb")))
+    data = run_autograder(gradescope_dir, HW4_GRADE_TIME_LIMIT=str(limit))
+    assert_valid_results(data)
+    assert data["extra_data"]["failure"] is None, data["output"]
+    timing = data["extra_data"]["timing"]
+    assert timing["session_budget"] < limit
+    assert data["execution_time"] < limit
+    checks = [t for t in data["tests"] if "score" not in t]
+    assert checks and all(t["status"] == "failed" for t in checks)

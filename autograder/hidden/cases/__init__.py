@@ -83,7 +83,7 @@ def call_seconds(prepared: dict, time_scale: float) -> float:
     matching = sum(s["epipolarCorrespondence"] * len(k.pts1) for k in c.cases)
     points = s["epipolarCorrespondence"] * len(c.points_case.pts1) + s["compute3D_pts.triangulate"]
     return time_scale * (
-        s["eightpoint"] * (len(f.cases) + 3) + s["essentialMatrix"] * (len(e.inputs) + 1)
+        s["eightpoint"] * f.calls + s["essentialMatrix"] * (len(e.inputs) + 1)
         + s["triangulate"] * len(t.all) + s["findM2"] * len(p.cases)
         + 2 * matching + 3 * points
         + s["rodriguesResidual"] * len(b.residual_inputs) + s["bundleAdjustment"] * len(b.problems)
