@@ -5,11 +5,15 @@ F is defined up to scale and sign, and several answers are right (refineF or not
 
 - fits: the RMS symmetric distance of *true* matches to the student's epipolar lines stays below a
   goal set from the scene's noise and the reference's distance on the same scene (FIT_FACTOR times
-  the larger);
+  the larger), for F as returned and for F with refineF switched off (the goal is FIT_FACTOR times
+  the reference's distance without refineF at least, so every valid method meets it either way;
+  a design matrix built for F transposed does not once refineF stops polishing it);
 - rank 2, and the data files' uint16 points give the F of the same points as float: counted only
   where F fits the scene (a zero or constant matrix earns nothing);
 - noise-free matches (several scenes) give an exact F, to EXACT_TOL * M; the catalogue then names
-  what went wrong.
+  what went wrong.  This is the sharp test of the method, so it weighs most (4 of 10): noisy
+  matches cannot tell F from a transposed F where F is nearly skew-symmetric (little rotation
+  between the views), and refineF polishes the rest.
 
 Every input is given twice: as it is, and with refineF switched off inside the sandbox (every
 global of eightpoint bound to refineF returns its F unchanged for that request, as the FAQ's
@@ -26,7 +30,7 @@ import pytest
 from autograder.hidden.cases import SECONDS
 from autograder.hidden.feedback import called_as, read_returned
 from judging import fundamental as jf
-from judging.verdict import Malformed
+from judging.verdict import Malformed, Verdict
 
 _OFF = "with refineF switched off"
 _OFF_NOTE = ("switched off: every name of your eightpoint bound to the kit's refineF returned the F it was given, "
@@ -99,13 +103,29 @@ def judge_q2(p, F: dict, F_off: dict) -> dict:
     the student's F (3, 3) or the Malformed saying why there is none, as returned and with refineF
     switched off.  Pure: the tests below and tests/test_fundamental_goals.py grade with it.
     """
+    # Rank 2 and uint16 count where F as returned fits (a constant answer earns nothing); the fit
+    # check itself also asks it of F with refineF off.
     fits = {c: jf.fit(F[c], c.eval1, c.eval2, c.goal, c.M) for c in p.cases if not isinstance(F[c], Malformed)}
+    fits_both = {c: _fit_both(c, v, F_off[c]) for c, v in fits.items()}
     exact = {c: (_judge(jf.exact_fit, F[c], c.eval1, c.eval2, c.M), _judge(jf.exact_fit, F_off[c], c.eval1, c.eval2, c.M))
              for c in p.exact}
     # The noise-free matches name a mistake best: as returned first, then with refineF off.
     named = _mistakes(*(on for on, _ in exact.values())) or _mistakes(*(off for _, off in exact.values()))
-    return {"fits": _fits(p, F, fits, named), "rank": _rank(p, F, F_off, fits), "exact": _exact(exact, named),
+    return {"fits": _fits(p, F, fits_both, named), "rank": _rank(p, F, F_off, fits), "exact": _exact(exact, named),
             "uint16": _uint16(p, F, F_off, fits)}
+
+
+def _fit_both(case, on, F_off):
+    """``on`` (the ``jf.fit`` of F as returned), unless it passes and F with refineF off does not (or
+    is malformed): then a failed verdict saying so."""
+    if not on.passed:
+        return on
+    if isinstance(F_off, Malformed):
+        return Verdict.of(on.what, False, f"{_OFF}: {F_off}", on.goal)
+    off = jf.fit(F_off, case.eval1, case.eval2, case.goal, case.M)
+    if off.passed:
+        return on
+    return Verdict.of(on.what, False, f"{on.measured} as returned, {off.measured} {_OFF}", off.goal, off.mistakes)
 
 
 def _fits(p, F, fits, named):
@@ -190,7 +210,7 @@ def q2(fundamental, eightpoint_F, eightpoint_F_off) -> dict:
     return judge_q2(fundamental, eightpoint_F, eightpoint_F_off)
 
 
-@pytest.mark.points(5, question="Q2", name="F fits the true matches of every scene")
+@pytest.mark.points(3, question="Q2", name="F fits the true matches of every scene")
 def test_F_fits_the_true_matches(q2, score):
     score.grade(*q2["fits"])
 
@@ -200,7 +220,7 @@ def test_F_has_rank_2(q2, score):
     score.grade(*q2["rank"])
 
 
-@pytest.mark.points(2, question="Q2", name="noise-free matches give an exact F")
+@pytest.mark.points(4, question="Q2", name="noise-free matches give an exact F")
 def test_noise_free_matches_give_an_exact_F(q2, score):
     score.grade(*q2["exact"])
 
