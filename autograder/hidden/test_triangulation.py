@@ -2,7 +2,7 @@
 
 - Exact matches of an exact scene (K1 != K2) must give back the true points.
 - On noisy matches with the true cameras (the official data: the reference's cameras), the
-  reprojection error of the student's points, recomputed here, must be within 5 % of the
+  reprojection error of the student's points, recomputed here, must be within 20 % of the
   reference's linear triangulation (a better method, e.g. optimal triangulation, is welcome).
 - ``err`` must be the total squared reprojection error of the points returned (both images).
 """

@@ -38,7 +38,7 @@ def check_triangulate(triangulate, *, scene: NoisyPair | None = None, root=None,
 
     Checked (judging.triangulation): exact matches give the true points; err is the sum of
     squares of the residuals of the returned points; on noisy (uint16) matches the points
-    reproject within 5 % of the lowest error reachable (computed by polishing the true points
+    reproject within 20 % of the lowest error reachable (computed by polishing the true points
     and yours, one by one).
     """
     report = CheckReport("triangulate")
