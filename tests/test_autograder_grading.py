@@ -388,7 +388,11 @@ def test_an_exception_carrying_the_inputs_is_quoted_as_type_place_and_a_short_li
     assert "RuntimeError" in text and "dump" in text
     assert not re.search(r"[A-Z2-7]{33,}", text), "a base32 dump of the inputs reached the results"
     assert "second line" not in text and "7" * 20 not in text
-    hidden = build_hidden_inputs(config)
+    # The points this submission was given: its own draw (from its code), the first hidden scene.
+    from autograder.hidden.inputs import code_salt
+    from autograder.submission import load_submission
+
+    hidden = build_hidden_inputs(config, salt=code_salt(load_submission(folder)))
     pts = np.asarray(hidden.prepared["fundamental"].cases[0].pts1, dtype=float)
     assert base64.b32encode(pts.tobytes())[:16].decode() not in text
 
