@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from ..scenes import DEFAULT_LABEL, FIXED_LABELS, Scenes
+from ..scenes import FIXED_LABELS, Scenes
 from .base import M1, SECONDS
 from .bundle import prepare_bundle
 from .correspondence import combine_correspondence, matching_labels, prepare_correspondence
@@ -54,14 +54,10 @@ def draw_all(scenes: Scenes, batch: dict) -> dict:
     drawn = prepare_all(scenes)
     fixed = {name: [c for c in _cases_of(name, batch[name]) if c.label in FIXED_LABELS] for name in drawn}
     f, t, p = drawn["fundamental"], drawn["triangulation"], drawn["pose"]
-    bf = batch["fundamental"]
-    # The exact and uint16 cases come from the default data when there is one, else from the
-    # last hidden scene (cases.fundamental): the batch's are this draw's in the first case.
-    base = bf if bf.uint16.label.startswith(DEFAULT_LABEL) else f
+    # (Q2's noise-free and uint16 cases are made from the draw's own hidden scenes: cases.fundamental.)
     return {
         **drawn,
-        "fundamental": dataclasses.replace(f, cases=(*f.cases, *fixed["fundamental"]), exact=base.exact,
-                                           uint16=base.uint16),
+        "fundamental": dataclasses.replace(f, cases=(*f.cases, *fixed["fundamental"])),
         "triangulation": dataclasses.replace(t, noisy=(*t.noisy, *fixed["triangulation"])),
         "pose": dataclasses.replace(p, cases=(*p.cases, *fixed["pose"])),
         "correspondence": combine_correspondence(drawn["correspondence"], batch["correspondence"], scenes.config),
