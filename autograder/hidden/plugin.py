@@ -61,6 +61,7 @@ class CheckFailed(AssertionError):
 
 class _Calls:
     time_scale = 1.0
+    cpu_clock = False   # the session's limits are CPU seconds (Gradescope), not wall-clock seconds
 
     def each(self, function: str, inputs, *, seconds: float, args=(), slack: float = 2.0, figure: bool = False,
              swap=None, kwargs=None):
@@ -69,6 +70,11 @@ class _Calls:
         ``swap``: globals replaced for this request only (``{"refineF": "identity"}``, see the child)."""
         inputs = [(tuple(a), dict(kwargs or {})) for a in inputs]
         budget = float(seconds) * len(inputs) * self.time_scale
+        if self.cpu_clock:
+            # CPU seconds count the student's code only (no waiting on a loaded machine), so the
+            # slack scales with the limits like the budget does; a hung call then costs its budget
+            # and little more (Gradescope at time_scale 0.1: 0.25 s instead of 2 to 5 s a request).
+            slack = max(0.25, float(slack) * min(1.0, self.time_scale))
         return self.map(function, inputs, args=args, seconds=budget + slack, budget=budget, figure=figure,
                         **({"swap": swap} if swap else {}))
 
@@ -82,6 +88,7 @@ class Student(_Calls):
     def __init__(self, session, time_scale: float = 1.0):
         self.session = session
         self.time_scale = time_scale
+        self.cpu_clock = session.rt.limits.clock == "cpu"
 
     @property
     def defined(self) -> tuple[str, ...]:
