@@ -67,6 +67,30 @@ def test_a_killed_graders_folders_are_swept_and_a_live_graders_stay(tmp_path):
     assert sorted(leftovers.sweep(tmp_path)) == sorted(live_folders)
 
 
+def test_a_sweep_while_a_folder_is_being_made_leaves_it(tmp_path, monkeypatch):
+    # A batch's threads each make a Sandbox (which sweeps) at the same moment: one thread's sweep
+    # can land between another's creating its folder and locking it. Here the sweep runs right
+    # there, every time; the folder being made must survive it, and be usable after.
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    real_flock = leftovers.fcntl.flock
+    swept: list[list[Path]] = []
+
+    def flock_after_a_sweep(fd, op):
+        if op == leftovers.fcntl.LOCK_EX:
+            swept.append(leftovers.sweep(tmp_path))
+        return real_flock(fd, op)
+
+    monkeypatch.setattr(leftovers.fcntl, "flock", flock_after_a_sweep)
+    folder, fd = leftovers.owned_folder("hw4-sandbox-")
+    monkeypatch.setattr(leftovers.fcntl, "flock", real_flock)
+    try:
+        assert swept == [[]], swept
+        assert folder.is_dir() and (folder / leftovers.OWNER_FILE).is_file()
+        assert leftovers.sweep(tmp_path) == [] and folder.is_dir()  # locked under its name now
+    finally:
+        leftovers.release(folder, fd)
+
+
 def test_a_graders_own_folders_are_alive_to_its_own_sweep(tmp_path, monkeypatch):
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     folder, fd = leftovers.owned_folder("hw4-hidden-")

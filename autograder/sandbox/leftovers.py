@@ -8,11 +8,12 @@ them, so every folder records its owner twice: the pid in its name
 ``.owner`` inside for as long as it lives (the kernel drops the lock when the process dies, so a
 reused pid or another pid namespace cannot make a dead owner look alive, or the other way round).
 
-``sweep`` removes the folders of this user whose owner is dead: the lock on ``.owner`` is free,
-or, for a folder made so recently that its lock may not be taken yet, its pid is not running and
-the folder is over a minute old.  It never removes a folder whose owner is alive, a folder of
-another user, anything that is not a plain folder (a symlink of that name is left, and not
-followed), nor folders named otherwise (those of graders older than this module included).
+``sweep`` removes the folders of this user whose owner is dead: the lock on ``.owner`` is free
+(the file only gets that name once locked), or, for a folder without one (in the making, or
+killed before its lock), its pid is not running and the folder is over a minute old.  It never
+removes a folder whose owner is alive, a folder of another user, anything that is not a plain
+folder (a symlink of that name is left, and not followed), nor folders named otherwise (those of
+graders older than this module included).
 Every channel sweeps when it makes its Sandbox (``Sandbox.__init__``), before grading.
 """
 
@@ -43,10 +44,16 @@ def owned_folder(prefix: str, *, mode: int = 0o700) -> tuple[Path, int]:
         raise ValueError(f"prefix: expected one of {PREFIXES}, got {prefix!r}")
     folder = Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}-"))  # 0700 until told otherwise
     try:
-        fd = os.open(folder / OWNER_FILE, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
+        # Locked under another name, then renamed: a sweep (in another process, or another thread
+        # of this one making its own Sandbox) never finds ``.owner`` unlocked while its owner lives.
+        # Created and locked in place, a sweep between the two took the new folder for a dead
+        # grader's and removed it (a batch's second thread then failed with FileNotFoundError).
+        pending = folder / (OWNER_FILE + ".new")
+        fd = os.open(pending, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX)  # a new file: nobody else holds it
             os.write(fd, f"{os.getpid()}\n".encode())
+            os.rename(pending, folder / OWNER_FILE)
         except BaseException:
             os.close(fd)
             raise
