@@ -50,7 +50,7 @@ def symmetric_epipolar_cost(F: np.ndarray, pts1: np.ndarray, pts2: np.ndarray) -
     F (3, 3); pts1, pts2 (N, 2) float points, not checked (this runs inside the optimiser).
     This is the geometric cost ``refineF`` minimises; inf when a line is undefined.
     """
-    return float(np.sum(geometry.symmetric_epipolar_distances(F, pts1, pts2) ** 2))
+    return geometry.symmetric_epipolar_cost_of(pts1, pts2)(np.asarray(F, float))
 
 
 def refineF(F, pts1, pts2) -> np.ndarray:
@@ -78,8 +78,10 @@ def refineF(F, pts1, pts2) -> np.ndarray:
     if scale == 0:
         raise ValueError("F: expected a non-zero matrix, got all zeros")
 
+    of = geometry.symmetric_epipolar_cost_of(p1, p2)
+
     def cost(f):
-        return symmetric_epipolar_cost(enforce_rank2(f.reshape(3, 3)), p1, p2)
+        return of(enforce_rank2(f.reshape(3, 3)))
 
     # Powell needs no gradient, and the cost is flat along F's scale: that is harmless to it.
     res = scipy.optimize.minimize(cost, (F / scale).ravel(), method="Powell",

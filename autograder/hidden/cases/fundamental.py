@@ -24,6 +24,7 @@ from core.geometry import symmetric_epipolar_distances
 from judging import fundamental as jf
 
 from ..scenes import Scenes
+from .base import reference_F
 
 __all__ = ["Fundamental", "FundamentalCase", "prepare_fundamental"]
 
@@ -77,16 +78,19 @@ def _rms(F, eval1, eval2) -> float:
     return float(np.sqrt(np.mean(d ** 2)))
 
 
-def _reference_rms(pts1, pts2, M, eval1, eval2) -> tuple[float, float]:
-    """RMS distances of the evaluation matches to the reference's F with and without refineF."""
+def _reference_rms(pts1, pts2, M, eval1, eval2, refined=None) -> tuple[float, float]:
+    """RMS distances of the evaluation matches to the reference's F with and without refineF
+    (``refined``: the first when already made)."""
     from solutions import eightpoint
 
     p1, p2 = np.asarray(pts1, float), np.asarray(pts2, float)
-    return (_rms(eightpoint(p1, p2, M), eval1, eval2), _rms(eightpoint(p1, p2, M, refine=False), eval1, eval2))
+    if refined is None:
+        refined = eightpoint(p1, p2, M)
+    return (_rms(refined, eval1, eval2), _rms(eightpoint(p1, p2, M, refine=False), eval1, eval2))
 
 
-def _noisy_case(label, pts1, pts2, M, eval1, eval2, noise) -> FundamentalCase:
-    ref = _reference_rms(pts1, pts2, M, eval1, eval2)
+def _noisy_case(label, pts1, pts2, M, eval1, eval2, noise, refined=None) -> FundamentalCase:
+    ref = _reference_rms(pts1, pts2, M, eval1, eval2, refined)
     return FundamentalCase(label, np.asarray(pts1, float), np.asarray(pts2, float), float(M),
                            np.asarray(eval1, float), np.asarray(eval2, float), jf.fit_goal(ref, noise), noise, ref)
 
@@ -99,11 +103,12 @@ def _exact_case(label, pts1, pts2, M) -> FundamentalCase:
 def _temple_case(tc) -> FundamentalCase:
     if not tc.has_truth:
         # No ground truth: the given matches, as the handout uses them; no known noise.
-        return _noisy_case(tc.label, tc.pts1, tc.pts2, tc.M, tc.pts1, tc.pts2, None)
+        return _noisy_case(tc.label, tc.pts1, tc.pts2, tc.M, tc.pts1, tc.pts2, None, reference_F(tc))
     s = tc.scene
     keep = s.visible2
     e1, e2 = np.column_stack([s.x1, s.y1]).astype(float)[keep], s.x2_true[keep]
-    return _noisy_case(tc.label, tc.pts1, tc.pts2, tc.M, e1, e2, jf.noise_of(s.pts1, s.pts2, s.pts1_true, s.pts2_true))
+    return _noisy_case(tc.label, tc.pts1, tc.pts2, tc.M, e1, e2, jf.noise_of(s.pts1, s.pts2, s.pts1_true, s.pts2_true),
+                       reference_F(tc))
 
 
 def _enlarged_cases(tc) -> tuple[FundamentalCase, FundamentalCase, FundamentalCase]:

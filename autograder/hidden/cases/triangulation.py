@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scenes import Scenes
-from .base import M1
+from .base import M1, reference_F
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,7 +37,7 @@ class Triangulation:
 
 
 def prepare_triangulation(scenes: Scenes) -> Triangulation:
-    from solutions import eightpoint, findM2, triangulate
+    from solutions import findM2, triangulate
 
     tv = scenes.two_view
     exact = TriangulationCase("noise-free matches", tv.C1, tv.pts1, tv.C2, tv.pts2, tv.M2, 0.0, tv.X)
@@ -47,7 +47,7 @@ def prepare_triangulation(scenes: Scenes) -> Triangulation:
         if tc.has_truth:
             M2 = tc.scene.M2
         else:
-            M2 = findM2(eightpoint(tc.pts1, tc.pts2, tc.M), tc.pts1, tc.pts2, tc.K1, tc.K2)[0]
+            M2 = findM2(reference_F(tc), tc.pts1, tc.pts2, tc.K1, tc.K2)[0]
         C2 = tc.K2 @ M2
         _, err = triangulate(C1, tc.pts1, C2, tc.pts2)
         noisy.append(TriangulationCase(tc.label, C1, tc.pts1, C2, tc.pts2, M2, err))
