@@ -217,6 +217,23 @@ def test_memory_bomb_is_stopped_by_the_limit(box):
     assert np.ones(10).sum() == 10  # the grader is fine
 
 
+def test_a_function_out_of_memory_is_not_called_again(box):
+    # Each attempt fills the memory limit (seconds of zeroed pages, 30 s per memory bomb of a class
+    # when every Q2 input was tried): the rest of the request is skipped, later calls are not made.
+    src = ("import numpy as np\ncalls = []\n"
+           "def bomb(k):\n    calls.append(k)\n    return np.ones(2**29).sum()\n"
+           "def tried(): return list(calls)\n")
+    with box.session(src, budget=120.0) as session:
+        first = session.map("bomb", [((k,), {}) for k in range(3)], seconds=30)
+        later = session.call("bomb", 9, seconds=5)
+        tried = session.call("tried", seconds=5)
+    assert first[0].status == "exception" and "MemoryError" in first[0].message
+    assert [o.status for o in first[1:]] == ["skipped", "skipped"], first
+    assert "ran out of memory on an earlier input" in first[1].message
+    assert later.status == "skipped" and "ran out of memory earlier" in later.message
+    assert tried.value == [0]  # tried once, in the same child: nothing crashed
+
+
 def test_fork_bomb_is_limited_and_leaves_nothing(box):
     if box.isolation.uid is None:
         pytest.skip("the sandbox has no uid of its own here, so the process limit is the grader's")

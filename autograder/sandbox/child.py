@@ -338,7 +338,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     now = time.process_time if clock == "cpu" else time.monotonic
     over = f"used more than {seconds:g} s of CPU time" if clock == "cpu" else f"took more than {seconds:g} s"
     start = now()
-    timed_out = False
+    timed_out = exhausted = False
     swapped, saved = _swap_in(fn, request.get("swap"))
     _arm(seconds, clock)
     try:
@@ -348,6 +348,11 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
             if timed_out or now() - start > budget:
                 record.update(status="skipped", message=f"not run: {request['function']} used up its time "
                               "on the earlier inputs")
+                channel.send(record)
+                continue
+            if exhausted:
+                record.update(status="skipped", message=f"not run: {request['function']} ran out of memory "
+                              "on an earlier input")
                 channel.send(record)
                 continue
             try:
@@ -364,6 +369,10 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
                     record.update(status="timeout", message=over)
                 except wire.Unsupported as exc:
                     record.update(status="malformed", message=str(exc))
+                except MemoryError as exc:
+                    # Each attempt fills the memory limit (seconds of zeroed pages): never again.
+                    exhausted = True
+                    record.update(status="exception", message=_describe(exc, origins, limit), exhausted=True)
                 except BaseException as exc:  # noqa: BLE001 - SystemExit and friends included
                     record.update(status="exception", message=_describe(exc, origins, limit))
             except _Timeout:

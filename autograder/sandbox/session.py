@@ -8,8 +8,9 @@ that computes too long itself, and the grader kills one that waits instead (slee
 read) at ``seconds * limits.wall_factor + limits.grace`` wall-clock seconds; ``CallOutcome.stopped_by``
 says which happened.  The child is started on the first call and restarted, lazily,
 after a call that crashed it, was killed for overrunning its time or broke the protocol.  A
-function that ran out of time is not called again in the session (it would most likely hang
-again), and the session as a whole has a time budget.  Loading that crashes or hangs fails every
+function that ran out of time, or out of memory (MemoryError: the child skips the rest of the
+request too), is not called again in the session (it would most likely do it again, at the
+price of its limit each time), and the session as a whole has a time budget.  Loading that crashes or hangs fails every
 call without retrying.
 
 Every record is read from a dedicated pipe and decoded by ``core.wire`` with size limits; the
@@ -120,6 +121,7 @@ class Session:
         self.loaded_once = False
         self.load_failure: CallOutcome | None = None
         self.stopped: dict[str, str | None] = {}  # function -> what stopped it
+        self.exhausted: set[str] = set()           # functions that ran out of memory (MemoryError)
         self.spawns = 0
         self.swept = 0
         self.calls = 0
@@ -170,6 +172,8 @@ class Session:
         if function in self.stopped:
             return [CallOutcome("timeout", message=f"not run: {function} was stopped earlier for taking too long",
                                 stopped_by=self.stopped[function])] * n
+        if function in self.exhausted:
+            return [CallOutcome("skipped", message=f"not run: {function} ran out of memory earlier")] * n
         if self.load_failure is None and self.child is None:
             self._spawn()
         if self.load_failure is not None:
@@ -180,6 +184,8 @@ class Session:
         for o in results:
             if o.status == "timeout":
                 self.stopped.setdefault(function, o.stopped_by)
+        if request.get("exhausted"):
+            self.exhausted.add(function)
         return results
 
     def start(self) -> None:
@@ -296,6 +302,8 @@ class Session:
                     raise _ProtocolError("a result names an unknown input or status")
                 if index not in found:  # the first word on an input is final
                     found[index] = self._outcome(rec, request["clock"])
+                    if rec.get("exhausted") is True:
+                        request["exhausted"] = True
                 state["current"] = max(state["current"], index + 1)
             elif event == "end":
                 state["ended"] = True
