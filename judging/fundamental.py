@@ -66,7 +66,7 @@ def fit_goal(reference_rms: Iterable[float] | float, noise_px: float | None = No
     """The goal (pixels) of :func:`fit`: FIT_FACTOR * max(reference, noise).
 
     reference_rms : the RMS distance (pixels) of the evaluation matches to the reference's F on
-        the same data: one number, or several (the handout's method refined and not:
+        the same data: one number, or several (the handout's method with and without refineF:
         the larger counts, as every valid method must keep the goal).
     noise_px : the standard deviation (pixels, per coordinate) of the noise of the matches
         F was fitted to (``noise_of``), or None when unknown (data without ground truth).

@@ -3,8 +3,7 @@
 - ``cases``: noisy matches (the hidden scenes, the last hidden scene enlarged, the default data,
   the official data), each with the true matches F is evaluated on and the goal of
   ``judging.fundamental.fit``: FIT_FACTOR times the larger of the reference's RMS distance (the
-  handout's method, refined and not: ``base.refined_eightpoint``) and the noise the scene was made
-  with.
+  handout's method with and without refineF) and the noise the scene was made with.
 - ``exact``: noise-free matches (of every hidden scene, of the exact two-view scene whose cameras
   have different intrinsics, of the enlarged scene), where F is exact up to EXACT_TOL * M.
 - ``uint16``: the enlarged scene's matches as uint16, every coordinate above 256 in both images,
@@ -25,7 +24,7 @@ from core.geometry import symmetric_epipolar_distances
 from judging import fundamental as jf
 
 from ..scenes import Scenes
-from .base import reference_F, refined_eightpoint
+from .base import reference_F
 
 __all__ = ["Fundamental", "FundamentalCase", "prepare_fundamental"]
 
@@ -40,8 +39,8 @@ class FundamentalCase:
     goal : pixels; the fit goal for noisy matches, EXACT_TOL * M for noise-free ones.
     noise : the noise (pixels) of pts1, pts2 about the exact projections (0 for noise-free
         matches), None when unknown (the official data).
-    reference : the RMS distances (pixels) of eval1, eval2 to the reference's F, refined and
-        not (empty for noise-free matches).
+    reference : the RMS distances (pixels) of eval1, eval2 to the reference's F, with and
+        without refineF (empty for noise-free matches).
     """
 
     label: str
@@ -80,13 +79,13 @@ def _rms(F, eval1, eval2) -> float:
 
 
 def _reference_rms(pts1, pts2, M, eval1, eval2, refined=None) -> tuple[float, float]:
-    """RMS distances of the evaluation matches to the reference's F refined (``refined``, when
-    already made; ``base.refined_eightpoint``) and not."""
+    """RMS distances of the evaluation matches to the reference's F with and without refineF
+    (``refined``: the first when already made)."""
     from solutions import eightpoint
 
     p1, p2 = np.asarray(pts1, float), np.asarray(pts2, float)
     if refined is None:
-        refined = refined_eightpoint(p1, p2, M)
+        refined = eightpoint(p1, p2, M)
     return (_rms(refined, eval1, eval2), _rms(eightpoint(p1, p2, M, refine=False), eval1, eval2))
 
 
