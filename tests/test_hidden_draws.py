@@ -91,6 +91,29 @@ def test_a_draw_made_in_advance_is_the_one_made_later(batch, drawn):
     assert used.draw == drawn["a"].draw and np.array_equal(_temple_points(used), _temple_points(drawn["a"]))
 
 
+def test_q33s_right_camera_is_the_one_the_reference_chooses_even_from_a_poor_F(monkeypatch):
+    # Q3.3 gives findM2 the reference's F of a hidden scene and expects the candidate nearest the
+    # true pose. From a poor F, the points in front of both cameras can pick another candidate:
+    # every correct findM2 would lose. Here the reference's F is the unrefined one (poor on the
+    # quick scenes); each case must still expect what the reference's findM2 chooses.
+    from autograder.hidden.cases import pose as cases_pose
+    from autograder.hidden.scenes import make_scenes
+    from core.geometry import fundamental_from_pose
+    from solutions import eightpoint, findM2
+
+    monkeypatch.setattr(cases_pose, "reference_F", lambda tc: eightpoint(tc.pts1, tc.pts2, tc.M, refine=False))
+    replaced = 0
+    for salt in ("c" * 32, "d" * 32, "e" * 32):
+        scenes = make_scenes(quick_config(), salt=salt, fixed=False)
+        for case in cases_pose.prepare_pose(scenes).cases:
+            assert np.allclose(findM2(case.F, case.pts1, case.pts2, case.K1, case.K2)[0], case.right), case.label
+        tc = scenes.hidden[0]
+        given = cases_pose.prepare_pose(scenes).cases[1].F
+        true_F = fundamental_from_pose(tc.K1, tc.K2, tc.scene.M2)
+        replaced += min(np.abs(given / np.linalg.norm(given) - s * true_F).max() for s in (1, -1)) < 1e-9
+    assert replaced >= 1  # the poor F was replaced somewhere: the guard was exercised
+
+
 def test_the_unsalted_call_is_the_batch_and_bad_salts_are_refused(batch, drawn):
     assert inputs.build_hidden_inputs(quick_config()) is batch and batch.draw is None
     with pytest.raises(ValueError, match="salt"):
