@@ -26,6 +26,7 @@ from functools import lru_cache
 
 import corpus
 import numpy as np
+import parallel
 import pytest
 from corpus import variants
 
@@ -175,45 +176,60 @@ def test_the_uint16_case_overflows_and_is_a_valid_scene():
     assert p.float_twin().pts1.dtype == np.float64 and np.array_equal(p.float_twin().pts1, p.uint16.pts1)
 
 
+# What _judge_secret grades, set before the processes fork (exec'd functions cannot be pickled).
+_JOB: dict = {}
+
+
+def _judge_secret(secret: str) -> dict:
+    """One secret of ``_judge_all``: problems, the ratios of the valid methods and of the mistakes,
+    the mistakes' scores, and the fit goals."""
+    valid, wrong, must_lose = _JOB["valid"], _JOB["wrong"], _JOB["must_lose"]
+    out = {"problems": [], "valid": [], "wrong": {}, "scores": {}, "goals": []}
+    p = _prepared(secret)
+    out["goals"] = [(c.goal, c.label) for c in p.cases]
+    for name, fn in valid.items():
+        grades, F, F_off = _grade(fn, p)
+        for k, (fraction, lines, _) in grades.items():
+            if fraction < 1.0:
+                out["problems"].append(f"{secret}: valid {name} loses points in {k}: " + " | ".join(lines))
+        out["valid"] += [(k, r, f"{name}, {secret}") for k, r in _ratios(p, F, F_off).items()]
+    for name, (fn, code) in wrong.items():
+        grades, F, F_off = _grade(fn, p)
+        score = out["scores"][name] = _score(grades)
+        named = {m.code for _, _, ms in grades.values() for m in ms}
+        if score >= 10 - 1e-9:
+            out["problems"].append(f"{secret}: mistake {name} keeps full Q2")
+        elif code not in named:
+            out["problems"].append(f"{secret}: mistake {name} loses Q2 but {code} is not named (named: {named})")
+        out["problems"] += [f"{secret}: mistake {name} keeps {grades[k][0]:.2f} of the {k} test"
+                            for k in must_lose if grades[k][0] > 0.5]
+        if code == "uint16_wraparound":
+            continue   # judged by "same F or not": no figure
+        r = _ratios(p, F, F_off)
+        judged = max(r, key=lambda k: r[k])   # the judgment that rejects it most clearly
+        out["wrong"][name] = (r[judged], f"{judged}, {secret}")
+    return out
+
+
 def _judge_all(secrets, valid: dict, wrong: dict, must_lose: tuple[str, ...] = ()) -> list[str]:
-    """Grade ``valid`` and ``wrong`` ({name: (function, code)}) under ``secrets``; print the margins;
-    return the problems (a valid method losing points, a mistake keeping full Q2, not named, or
-    keeping the points of a test named in ``must_lose``)."""
-    problems = []
+    """Grade ``valid`` and ``wrong`` ({name: (function, code)}) under ``secrets`` (two processes,
+    ``parallel.fork_map``); print the margins; return the problems (a valid method losing points,
+    a mistake keeping full Q2, not named, or keeping the points of a test named in ``must_lose``)."""
+    _JOB.update(valid=valid, wrong=wrong, must_lose=must_lose)
+    per_secret = parallel.fork_map(_judge_secret, secrets)
+    problems = [line for r in per_secret for line in r["problems"]]
     worst_valid: dict[str, tuple[float, str]] = {}
     closest_wrong: dict[str, tuple[float, str]] = {}
-    scores: dict[str, list[float]] = {name: [] for name in wrong}
-    goals = []
-    for secret in secrets:
-        p = _prepared(secret)
-        goals += [(c.goal, c.label) for c in p.cases]
-        for name, fn in valid.items():
-            grades, F, F_off = _grade(fn, p)
-            for k, (fraction, lines, _) in grades.items():
-                if fraction < 1.0:
-                    problems.append(f"{secret}: valid {name} loses points in {k}: " + " | ".join(lines))
-            for k, r in _ratios(p, F, F_off).items():
-                if r > worst_valid.get(k, (-1.0, ""))[0]:
-                    worst_valid[k] = (r, f"{name}, {secret}")
-        for name, (fn, code) in wrong.items():
-            grades, F, F_off = _grade(fn, p)
-            score = _score(grades)
-            scores[name].append(score)
-            named = {m.code for _, _, ms in grades.values() for m in ms}
-            if score >= 10 - 1e-9:
-                problems.append(f"{secret}: mistake {name} keeps full Q2")
-            elif code not in named:
-                problems.append(f"{secret}: mistake {name} loses Q2 but {code} is not named (named: {named})")
-            problems += [f"{secret}: mistake {name} keeps {grades[k][0]:.2f} of the {k} test"
-                         for k in must_lose if grades[k][0] > 0.5]
-            if code == "uint16_wraparound":
-                continue   # judged by "same F or not": no figure
-            r = _ratios(p, F, F_off)
-            judged = max(r, key=lambda k: r[k])   # the judgment that rejects it most clearly
-            if r[judged] < closest_wrong.get(name, (np.inf, ""))[0]:
-                closest_wrong[name] = (r[judged], f"{judged}, {secret}")
+    for r in per_secret:
+        for k, ratio, where in r["valid"]:
+            if ratio > worst_valid.get(k, (-1.0, ""))[0]:
+                worst_valid[k] = (ratio, where)
+        for name, (ratio, where) in r["wrong"].items():
+            if ratio < closest_wrong.get(name, (np.inf, ""))[0]:
+                closest_wrong[name] = (ratio, where)
+    scores = {name: [r["scores"][name] for r in per_secret] for name in wrong}
     by_label: dict[str, list[float]] = {}
-    for goal, label in goals:
+    for goal, label in (g for r in per_secret for g in r["goals"]):
         by_label.setdefault(re.sub(r" \d+$", " k", label), []).append(goal)
     print(f"\nQ2 under {len(secrets)} secrets; fit goals (px) by scene: "
           + "; ".join(f"{k}: {min(v):.3g} to {max(v):.3g}" for k, v in by_label.items()))

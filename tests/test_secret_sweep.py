@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import corpus
 import numpy as np
+import parallel
 import pytest
 from corpus import variants
 
@@ -265,30 +266,15 @@ def grade_secret(secret: str) -> tuple[str, dict]:
     return secret, graded, seconds
 
 
-def _workers() -> int:
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:
-        cores = os.cpu_count() or 1
-    return max(1, min(2, cores))
-
-
 @pytest.fixture(scope="module")
 def sweep():
     """(programs, secret -> program -> question -> (score, max_score, tests)) for each program's
     secrets; a program's questions it does not reach are the key's of the same secret.  Prints the
     time each program took."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
     started = time.perf_counter()
     _PROGRAMS[:] = make_programs()
-    workers = _workers()
-    if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-            results = list(pool.map(grade_secret, SECRETS))
-    else:
-        results = list(map(grade_secret, SECRETS))
+    workers = parallel.workers()
+    results = parallel.fork_map(grade_secret, SECRETS)
     graded = {secret: per_program for secret, per_program, _ in results}
     costs: dict[str, float] = {}
     for _, _, seconds in results:
