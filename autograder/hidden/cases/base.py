@@ -25,8 +25,9 @@ _REFERENCE_F: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def reference_F(tc) -> np.ndarray:
     """The reference's F (3, 3; pixels, refineF on) of the matches of ``tc``
-    (``autograder.hidden.scenes.TempleCase``), made once per case: Q2's goals and Q3.3's inputs
-    both start from it, and its refineF is most of what a submission's draw costs."""
+    (``autograder.hidden.scenes.TempleCase``), made once per case: Q2's goals, Q3.3's inputs and
+    (on the official data, which has no true pose) Q3.2's second camera start from it, and its
+    refineF is most of what a submission's draw costs."""
     F = _REFERENCE_F.get(tc)
     if F is None:
         from solutions import eightpoint
