@@ -49,8 +49,27 @@ _idle_lock = threading.Lock()
 def _private_folder(prefix: str) -> Path:
     # Mode 0700, its owner recorded, so that a sweep removes it if this process is killed.
     folder, fd = leftovers.owned_folder(prefix)
-    atexit.register(leftovers.release, folder, fd)
+    owner = os.getpid()
+
+    def release() -> None:
+        if os.getpid() == owner:  # a forked child that exits normally runs this too: not its folder
+            leftovers.release(folder, fd)
+
+    atexit.register(release)
     return folder
+
+
+def _forget_in_child() -> None:
+    # A forked child (a process pool of the kit's tests, say) inherits the lists of this process's
+    # grading workers and hidden folders: it must neither talk to those workers nor reuse the
+    # folders, whose owner is the parent.  It starts its own when it grades.
+    global _caches_lock, _idle_lock
+    _caches_lock, _idle_lock = threading.Lock(), threading.Lock()  # a parent's thread may have held them
+    _caches.clear()
+    _idle.clear()
+
+
+os.register_at_fork(after_in_child=_forget_in_child)
 
 
 def hidden_cache(hidden: HiddenInputs) -> Path:

@@ -153,3 +153,27 @@ def test_making_a_sandbox_sweeps_the_temporary_directory():
         for f in folders:
             if f.name.startswith(tuple(leftovers.PREFIXES)):
                 leftovers.release(f, None)
+
+
+# A grader that forks: the child (a test's process pool, say) exits normally, running the atexit
+# hooks it inherited; the parent's hidden folder and grading worker must outlive it.
+FORKING_GRADER = textwrap.dedent('''
+    import os, sys
+    from autograder import grade
+    folder = grade._private_folder("hw4-hidden-")
+    grade._warm_worker()
+    pid = os.fork()
+    if pid == 0:
+        print("child sees", len(grade._idle), "workers", flush=True)
+        sys.exit(0)
+    os.waitpid(pid, 0)
+    print("folder", folder.is_dir(), "workers", [w.alive() for w in grade._idle], flush=True)
+''')
+
+
+def test_a_forked_child_leaves_its_parents_folders_and_workers_alone():
+    proc = subprocess.run([sys.executable, "-c", FORKING_GRADER], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(KIT_ROOT)}, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "child sees 0 workers" in proc.stdout, proc.stdout
+    assert "folder True workers [True]" in proc.stdout, proc.stdout
