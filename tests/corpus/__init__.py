@@ -192,8 +192,10 @@ CASES: dict[str, Case] = {
         loses=frozenset({"Q2", "Q3.1", "Q3.3"})),
     "os_exit_while_loading_zero": Case(
         lambda nbs, ctx: append_cell(nbs, "q2_eightpoint", hostile.OS_EXIT_WHILE_LOADING), zero=True),
+    # A cell after the key's, not in its place: that cell also holds the helper the key's
+    # bundleAdjustment uses, so a replacement took bundle adjustment down too (all of Q5 lost).
     "infinite_loop_in_rodriguesResidual_loses_part_of_Q5": Case(
-        _replace("rodriguesResidual", hostile.INFINITE_LOOP), loses=frozenset({"Q5"})),
+        _after("rodriguesResidual", hostile.INFINITE_LOOP), loses=frozenset({"Q5"})),
     "memory_bomb_in_eightpoint_loses_Q2": Case(_replace("eightpoint", hostile.MEMORY_BOMB), loses=frozenset({"Q2"})),
     "fork_bomb_in_findM2_loses_Q3_3": Case(_replace("findM2", hostile.FORK_BOMB), loses=frozenset({"Q3.3"})),
     "reads_grader_files_and_reference_zero": Case(
