@@ -92,6 +92,27 @@ def test_the_refineF_swap_is_undone_after_the_call(hidden):
     assert fn.__globals__["refineF"] is refineF
 
 
+def test_refineF_called_through_a_module_is_switched_off_too(hidden):
+    # 2018-2021 hand-ins write "import helper" and call helper.refineF(...): the polished transposed
+    # F must lose the exact-F check that way as well, and the module keep its refineF after.
+    import types
+
+    import solutions
+    from starter.epipolar import refineF
+
+    helper = types.ModuleType("helper")
+    helper.refineF = refineF
+    source = variants.EIGHTPOINT_TRANSPOSED_REFINED.replace("refineF(", "helper.refineF(")
+    assert "helper.refineF(" in source
+    namespace = {"helper": helper, "triangulate": solutions.triangulate}
+    exec(compile(source, "<helper.refineF>", "exec"), namespace)  # noqa: S102 - the corpus's own cell
+    q2 = _questions(hidden, eightpoint=namespace["eightpoint"])["Q2"]
+    exact = _test(q2, "exact F")
+    assert exact.score == 0, exact.feedback
+    assert "refineF switched off" in exact.feedback
+    assert helper.refineF is refineF
+
+
 @pytest.mark.parametrize("cell", ["EPIPOLAR_SLICES_WITH_COORDINATES", "EPIPOLAR_UINT8_DIFFERENCES"])
 def test_matchers_correct_on_the_course_inputs_get_full_Q41(hidden, cell):
     q41 = _questions(hidden, epipolarCorrespondence=_defined(getattr(variants, cell), "epipolarCorrespondence"))["Q4.1"]

@@ -309,7 +309,12 @@ def _identity_refineF(F, *args, **kwargs):
 
 
 def _swap_in(fn, swap):
-    """Apply a request's ``swap`` to ``fn.__globals__``; returns (globals, {name: old value}) to restore."""
+    """Apply a request's ``swap`` to ``fn.__globals__``; returns (globals, {key: old value}) to restore.
+
+    Switched off: every global named refineF or bound to the kit's, and the ``refineF`` of every
+    module among the globals (``import helper`` then ``helper.refineF(...)``, as the 2018-2021
+    hand-ins call it), keyed ``(module,)`` in what is returned.
+    """
     g = getattr(fn, "__globals__", None)
     if not isinstance(g, dict) or (swap or {}).get("refineF") != "identity":
         return None, {}
@@ -317,12 +322,19 @@ def _swap_in(fn, swap):
     saved = {k: v for k, v in list(g.items()) if k == "refineF" or (kit is not None and v is kit)}
     for k in saved:
         g[k] = _identity_refineF
+    for v in list(g.values()):
+        if isinstance(v, types.ModuleType) and callable(vars(v).get("refineF")) and (v,) not in saved:
+            saved[(v,)] = vars(v)["refineF"]
+            v.refineF = _identity_refineF
     return g, saved
 
 
 def _swap_out(g, saved):
     for k, v in saved.items():
-        g[k] = v
+        if isinstance(k, tuple):
+            k[0].refineF = v
+        else:
+            g[k] = v
 
 
 def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
