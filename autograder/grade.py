@@ -84,17 +84,21 @@ def hidden_cache(hidden: HiddenInputs) -> Path:
         return found[1]
 
 
-def budget_of(hidden: HiddenInputs, limits: ResourceLimits | None = None) -> float:
+def budget_of(hidden: HiddenInputs, limits: ResourceLimits | None = None, deadline: float | None = None) -> float:
     """Wall-clock seconds of one submission's session: every check's time, loading and restarts.
 
     Under the CPU clock (``limits.clock == "cpu"``, Gradescope) the checks' seconds are CPU
     seconds, which take 1 / ``limits.cpu_share`` wall-clock seconds where the code gets only a
     share of a CPU: that part grows by as much, so that a slow container is never cut short by
     this wall-clock backstop before its CPU limits.  Loading is limited in wall-clock seconds
-    (``load_timeout``) whatever the clock.
+    (``load_timeout``) whatever the clock.  With a ``deadline`` (``time.monotonic()``, see
+    ``grade_submission``) the session ends ``_DEADLINE_RESERVE`` seconds before it, if sooner.
     """
     stretch = limits.wall_per_cpu if limits is not None else 1.0
-    return (hidden.call_seconds() + 30) * stretch + hidden.config.load_timeout * (1 + _RESTARTS_BUDGETED)
+    budget = (hidden.call_seconds() + 30) * stretch + hidden.config.load_timeout * (1 + _RESTARTS_BUDGETED)
+    if deadline is not None:
+        budget = max(min(budget, deadline - time.monotonic() - _DEADLINE_RESERVE), 1.0)
+    return budget
 
 
 class _Worker:
@@ -230,12 +234,10 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
         results = work / "results.json"
         config_file = work / "config.json"
         config_file.write_text(json.dumps(hidden_inputs.config.to_dict()))
-        budget = budget_of(hidden_inputs, sandbox.limits)
-        backstop = budget + _MARGIN * sandbox.limits.wall_per_cpu
+        budget = budget_of(hidden_inputs, sandbox.limits, deadline)
+        backstop = budget_of(hidden_inputs, sandbox.limits) + _MARGIN * sandbox.limits.wall_per_cpu
         if deadline is not None:
-            left = deadline - time.monotonic()
-            budget = max(min(budget, left - _DEADLINE_RESERVE), 1.0)
-            backstop = max(min(backstop, left - 5.0), budget)
+            backstop = max(min(backstop, deadline - time.monotonic() - 5.0), budget)
         argv = pytest_command(path, extra_tests=[Path(p).resolve() for p in extra_tests], options=[
             "--grading-config", str(config_file), "--hidden-cache", str(cache), "--sandbox-spec", str(spec),
             "--results", str(results), "--student-id", student_id, "--budget", repr(budget)])

@@ -569,9 +569,8 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
     hidden = dataclasses.replace(hidden, config=dataclasses.replace(config, time_scale=config.time_scale * scale),
                                  scenes=None)
     limits = ResourceLimits(clock="cpu", wall_factor=wall_factor, cpu_share=share)
-    timing["session_budget"] = round(budget_of(hidden, limits), 1)  # wall-clock s, grown by 1 / share
-    if deadline is not None:  # grade_submission shrinks the budget to end before the platform's kill
-        timing["session_budget"] = round(min(timing["session_budget"], deadline - time.monotonic()), 1)
+    # Wall-clock s, grown by 1 / share, ending before the platform's kill (as grade_submission's).
+    timing["session_budget"] = round(budget_of(hidden, limits, deadline), 1)
     # All of root: the grader, the results, Gradescope's submission metadata, the answer key.
     with Sandbox(source, hidden=hideable([root, config.source, config.official_dir()]), limits=limits) as box:
         key = source / KEY_NAME

@@ -67,7 +67,7 @@ class _Calls:
              swap=None, kwargs=None):
         """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k], **kwargs)``, all
         within ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request;
-        ``swap``: globals replaced for this request only (``{"refineF": "identity"}``, see the child)."""
+        ``swap``: what is replaced for this request only (``{"refineF": "identity"}``, see the child's ``_swap_in``)."""
         inputs = [(tuple(a), dict(kwargs or {})) for a in inputs]
         budget = float(seconds) * len(inputs) * self.time_scale
         if self.cpu_clock:

@@ -16,7 +16,8 @@ F is defined up to scale and sign, and several answers are right (refineF or not
   between the views), and refineF polishes the rest.
 
 Every input is given twice: as it is, and with refineF switched off inside the sandbox (every
-global of eightpoint bound to refineF returns its F unchanged for that request, as the FAQ's
+global of eightpoint bound to refineF, and the refineF of every module among its globals such as
+``helper.refineF``, returns its F unchanged for that request, as the FAQ's
 "comment out the call to refineF"); rank 2, the exact F and uint16 are judged on both F's, since
 refineF polishes a transposed design matrix into a near miss and returns rank 2 whatever it gets.
 A lost point's feedback says how eightpoint was called (argument kinds, never values).
