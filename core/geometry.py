@@ -25,6 +25,7 @@ __all__ = [
     "IDENTITY_POSE",
     "depths",
     "camera_center",
+    "enforce_rank2",
     "essential_from_pose",
     "fundamental_from_pose",
     "homogeneous",
@@ -126,6 +127,13 @@ def symmetric_epipolar_distances(F, pts1, pts2) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         d = np.concatenate([r / np.hypot(l2[:, 0], l2[:, 1]), r / np.hypot(l1[:, 0], l1[:, 1])])
     return np.where(np.isfinite(d), d, np.inf)
+
+
+def enforce_rank2(F) -> np.ndarray:
+    """The rank-2 matrix closest to F (3x3) in Frobenius norm: its smallest singular value set to 0."""
+    U, S, Vt = np.linalg.svd(np.asarray(F, dtype=float))
+    S[2] = 0.0
+    return (U * S) @ Vt
 
 
 def symmetric_epipolar_cost_of(pts1, pts2):

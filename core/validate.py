@@ -86,11 +86,18 @@ def as_points(value, name: str, *, dims: int = 2, min_count: int = 1,
     return arr
 
 
-def as_matrix(value, name: str, shape: tuple[int, int]) -> np.ndarray:
-    """Return ``value`` as a finite float64 matrix of exactly ``shape``, or raise ValueError."""
+def as_matrix(value, name: str, shape: tuple[int, int], *, any_layout: bool = False) -> np.ndarray:
+    """Return ``value`` as a finite float64 matrix of exactly ``shape``, or raise ValueError.
+
+    With ``any_layout``, any array holding as many numbers as ``shape`` (a flat 9-vector for a
+    3x3, say) is accepted and reshaped row by row, as ``np.reshape`` does.
+    """
     arr = _to_array(value, name)
+    if any_layout and arr.shape != tuple(shape) and arr.size == int(np.prod(shape)):
+        arr = arr.reshape(shape)
     if arr.shape != tuple(shape):
-        raise ValueError(f"{name}: expected shape {tuple(shape)}, got {_describe(arr)}")
+        numbers = f" or {int(np.prod(shape))} numbers" if any_layout else ""
+        raise ValueError(f"{name}: expected shape {tuple(shape)}{numbers}, got {_describe(arr)}")
     arr = arr.astype(np.float64)
     _check_finite(arr, name)
     return arr

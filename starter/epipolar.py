@@ -9,17 +9,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
-from core import geometry
+from core import geometry, refine_switch
+from core.geometry import enforce_rank2
 from core.validate import as_matrix, as_points, same_length
 
 __all__ = ["enforce_rank2", "epipolar_distances", "symmetric_epipolar_cost", "refineF"]
-
-
-def enforce_rank2(F: np.ndarray) -> np.ndarray:
-    """The rank-2 matrix closest to F (3x3) in Frobenius norm: its smallest singular value set to 0."""
-    U, S, Vt = np.linalg.svd(F)
-    S[2] = 0.0
-    return (U * S) @ Vt
 
 
 def epipolar_distances(F, pts1, pts2) -> np.ndarray:
@@ -63,20 +57,24 @@ def refineF(F, pts1, pts2) -> np.ndarray:
 
     Parameters
     ----------
-    F : (3, 3) initial fundamental matrix (x2^T F x1 = 0) in the coordinates of pts1/pts2.
+    F : (3, 3) initial fundamental matrix (x2^T F x1 = 0) in the coordinates of pts1/pts2, or
+        its 9 entries in any shape (read row by row, as ``F.reshape(3, 3)``).
     pts1, pts2 : (N, 2) matched points (x, y) in those same coordinates, N >= 8.
 
     Returns
     -------
     (3, 3) rank-2 fundamental matrix in the same coordinates, scaled to unit Frobenius norm.
+
+    While the self-check or the grader switches refineF off (``core.refine_switch``, the FAQ's
+    "comment out refineF"), the arguments are checked the same way and the minimisation alone
+    is skipped: the result is then the closest rank-2 matrix to F, scaled to unit norm.
     """
-    F = as_matrix(F, "F", (3, 3))
+    F = refine_switch.as_F(F)
     p1 = as_points(pts1, "pts1", min_count=8)
     p2 = as_points(pts2, "pts2", min_count=8)
     same_length(pts1=p1, pts2=p2)
-    scale = np.linalg.norm(F)
-    if scale == 0:
-        raise ValueError("F: expected a non-zero matrix, got all zeros")
+    if refine_switch.is_off():
+        return refine_switch.polish_skipped(F)
 
     of = geometry.symmetric_epipolar_cost_of(p1, p2)
 
@@ -84,7 +82,7 @@ def refineF(F, pts1, pts2) -> np.ndarray:
         return of(enforce_rank2(f.reshape(3, 3)))
 
     # Powell needs no gradient, and the cost is flat along F's scale: that is harmless to it.
-    res = scipy.optimize.minimize(cost, (F / scale).ravel(), method="Powell",
+    res = scipy.optimize.minimize(cost, (F / np.linalg.norm(F)).ravel(), method="Powell",
                                   options={"maxiter": 100000, "maxfev": 10000, "xtol": 1e-4, "ftol": 1e-4})
     out = enforce_rank2(res.x.reshape(3, 3))
     return out / np.linalg.norm(out)

@@ -4,15 +4,16 @@ For each of 20 secrets the hidden Q2 inputs are prepared as the grader prepares 
 (``autograder.hidden.cases.fundamental.prepare_fundamental`` on the hidden scenes of
 ``quick_config(secret=...)``; the default data, the same under every secret, under the first),
 every eightpoint below is called through a ``LocalStudent`` as the hidden tests call it
-(``request_F``: as given, and with refineF switched off by the sandbox's own swap), and graded by
+(``request_F``: as given, and with refineF switched off by the sandbox's own switch), and graded by
 the hidden tests' own ``judge_q2``:
 
 - every valid method (1/M or Hartley scaling, refineF before or after unscaling or not at all,
-  SVD or eigh) gets 10/10 under every secret;
+  SVD or eigh; no rank-2 step of its own when refineF, rank 2 switched off too, comes before
+  unscaling) gets 10/10 under every secret;
 - the polished transposed F (the design matrix of F^T, then refineF, then unscaling; also with
   refineF after unscaling) loses Q2 under every secret, named "F transposed";
-- every other mistake of the catalogue (transposed, rank 3, not unscaled, unscaled the wrong way,
-  x/y swapped, uint16 wrap-around; with and without refineF) loses Q2 and is named, under the
+- every other mistake of the catalogue (transposed, rank 3 without refineF, not unscaled, unscaled
+  the wrong way, x/y swapped, uint16 wrap-around; with and without refineF) loses Q2 and is named, under the
   first secrets (tests/test_secret_sweep.py judges them under all 20).
 
 The margins (measured / goal of every judgment: the largest of the valid methods, and for each
@@ -47,6 +48,8 @@ VALID = {
     "refineF after unscaling": ("cell", variants.EIGHTPOINT_REFINED_AFTER_UNSCALING),
     "eigh, refineF": ("cell", variants.EIGHTPOINT_EIGH_REFINED),
     "eigh": ("cell", variants.eightpoint_cell(solver="eigh")),
+    # refineF's output is rank 2 (switched off too): the SVD step of its own is then not needed.
+    "no rank-2 step, refineF before unscaling": ("cell", variants.EIGHTPOINT_RANK3_REFINED),
 }
 # name -> (source, the catalogue code its feedback must name)
 POLISHED_TRANSPOSED = {
@@ -56,7 +59,6 @@ POLISHED_TRANSPOSED = {
 }
 MISTAKES = {
     "transposed F": (variants.eightpoint_cell("f_transposed"), "f_transposed"),
-    "rank 3, refineF": (variants.EIGHTPOINT_RANK3_REFINED, "f_rank3"),
     "rank 3": (variants.eightpoint_cell("f_rank3"), "f_rank3"),
     "not unscaled, refineF": (variants.eightpoint_cell("f_not_unscaled", refine=True), "f_not_unscaled"),
     "unscaled the wrong way": (variants.eightpoint_cell("f_unscaled_wrong_way"), "f_unscaled_wrong_way"),
@@ -112,7 +114,7 @@ def _grade(fn, p) -> tuple[dict, dict, dict]:
     from autograder.hidden.test_fundamental import judge_q2, request_F
 
     student = LocalStudent({"eightpoint": fn})
-    F, F_off = request_F(student, p), request_F(student, p, {"refineF": "identity"})
+    F, F_off = request_F(student, p), request_F(student, p, {"refineF": "off"})
     return judge_q2(p, F, F_off), F, F_off
 
 

@@ -75,11 +75,12 @@ CELLS = {
     "eightpoint by eigh, refined": ("eightpoint", variants.EIGHTPOINT_EIGH_REFINED, frozenset()),
     "eightpoint by eigh": ("eightpoint", variants.eightpoint_cell(solver="eigh"), frozenset()),
     "eightpoint Hartley, refined": ("eightpoint", variants.EIGHTPOINT_HARTLEY_REFINED, frozenset()),
+    # refineF before unscaling returns rank 2 (switched off too): no SVD step of its own is needed
+    "eightpoint with no rank-2 step of its own, refined": ("eightpoint", variants.EIGHTPOINT_RANK3_REFINED, frozenset()),
     # Q2: mistakes, several polished by refineF
     "eightpoint transposed, refined": ("eightpoint", variants.EIGHTPOINT_TRANSPOSED_REFINED, _Q2),
     "eightpoint transposed, refined after unscaling": (
         "eightpoint", variants.EIGHTPOINT_TRANSPOSED_REFINED_AFTER_UNSCALING, _Q2),
-    "eightpoint rank 3, refined": ("eightpoint", variants.EIGHTPOINT_RANK3_REFINED, _Q2),
     "eightpoint not unscaled, refined": ("eightpoint", variants.eightpoint_cell("f_not_unscaled", refine=True), _Q2),
     "eightpoint unscaled the wrong way": ("eightpoint", variants.eightpoint_cell("f_unscaled_wrong_way"), _Q2),
     "eightpoint x and y swapped, refined": ("eightpoint", variants.eightpoint_cell("xy_swapped", refine=True), _Q2),

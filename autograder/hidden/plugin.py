@@ -67,7 +67,7 @@ class _Calls:
              swap=None, kwargs=None):
         """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k], **kwargs)``, all
         within ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request;
-        ``swap``: what is replaced for this request only (``{"refineF": "identity"}``, see the child's ``_swap_in``)."""
+        ``swap``: what is switched off for this request only (``{"refineF": "off"}``, see the child's ``_refine_switch``)."""
         inputs = [(tuple(a), dict(kwargs or {})) for a in inputs]
         budget = float(seconds) * len(inputs) * self.time_scale
         if self.cpu_clock:
@@ -124,13 +124,10 @@ class LocalStudent(_Calls):
 
     def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False, swap=None):
         fn = self.functions.get(function)
-        from autograder.sandbox.child import _swap_in, _swap_out
+        from autograder.sandbox.child import _refine_switch
 
-        swapped, saved = _swap_in(fn, swap) if fn is not None else (None, {})
-        try:
+        with _refine_switch(fn, swap):
             return self._map(fn, function, inputs, args, figure)
-        finally:
-            _swap_out(swapped, saved)
 
     def _map(self, fn, function, inputs, args, figure):
         import numpy as np

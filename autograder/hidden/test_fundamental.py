@@ -15,11 +15,13 @@ F is defined up to scale and sign, and several answers are right (refineF or not
   matches cannot tell F from a transposed F where F is nearly skew-symmetric (little rotation
   between the views), and refineF polishes the rest.
 
-Every input is given twice: as it is, and with refineF switched off inside the sandbox (every
-global of eightpoint bound to refineF, and the refineF of every module among its globals such as
-``helper.refineF``, returns its F unchanged for that request, as the FAQ's
-"comment out the call to refineF"); rank 2, the exact F and uint16 are judged on both F's, since
-refineF polishes a transposed design matrix into a near miss and returns rank 2 whatever it gets.
+Every input is given twice: as it is, and with refineF switched off inside the sandbox for that
+request (``core.refine_switch``, the switch the public self-check throws too; the FAQ's "comment
+out the call to refineF"): by every route (the kit's refineF by any name, ``starter.refineF``, a
+default argument, an import inside eightpoint; a refineF of the student's own, such as
+``helper.refineF``), refineF skips its minimisation and returns the closest rank-2 matrix to the F
+it is given, unit norm, so that only the polish is gone.  Rank 2, the exact F and uint16 are
+judged on both F's, since refineF polishes a transposed design matrix into a near miss.
 A lost point's feedback says how eightpoint was called (argument kinds, never values).
 """
 
@@ -34,8 +36,9 @@ from judging import fundamental as jf
 from judging.verdict import Malformed, Verdict
 
 _OFF = "with refineF switched off"
-_OFF_NOTE = ("switched off: every name of your eightpoint bound to the kit's refineF returned the F it was given, "
-             "as the FAQ's 'comment out the call to refineF' (refineF can hide a mistake made before it)")
+_OFF_NOTE = ("switched off: refineF skipped its minimisation and returned the closest rank-2 matrix to the F it was "
+             "given (unit norm), as the FAQ's 'comment out the call to refineF' (refineF can hide a mistake made "
+             "before it)")
 
 
 @pytest.fixture(scope="session")
@@ -76,7 +79,7 @@ def eightpoint_F(student, fundamental) -> dict:
 @pytest.fixture(scope="session")
 def eightpoint_F_off(student, fundamental) -> dict:
     """The F of every case with refineF switched off inside the sandbox, by case."""
-    return request_F(student, fundamental, {"refineF": "identity"})
+    return request_F(student, fundamental, {"refineF": "off"})
 
 
 def _judge(judgment, F, *args):

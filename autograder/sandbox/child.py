@@ -1,8 +1,9 @@
 """The program that runs a student's code inside the sandbox (``python -I -B child.py --result-fd N``).
 
 Everything here runs as the student: it imports only the standard library, numpy and the kit's
-``core.wire`` (from the kit packages the sandbox exposes, never the autograder or the solutions),
-and whatever it writes is judged by the grader as untrusted data.
+``core.wire`` and ``core.refine_switch`` (from the kit packages the sandbox exposes, never the
+autograder or the solutions, nor ``starter``, which would load scipy into every child), and
+whatever it writes is judged by the grader as untrusted data.
 
 The protocol is a session (the grader's side is ``autograder/sandbox/session.py``):
 
@@ -17,8 +18,9 @@ The protocol is a session (the grader's side is ``autograder/sandbox/session.py`
   or with ``clock`` "cpu" CPU seconds of this process: ITIMER_PROF and ``time.process_time``; the
   grader kills a call that waits instead of computing).  With ``figure``,
   what is reported for an input is the (K, 3) points its 3D figures show, not the returned value.
-  With ``swap`` ``{"refineF": "identity"}``, for the duration of the call every global of the
-  function named refineF, or bound to the kit's ``starter.epipolar.refineF``, returns its F unchanged.
+  With ``swap`` ``{"refineF": "off"}``, refineF is switched off for the duration of the call
+  (``core.refine_switch.switched_off``, the switch the public self-check throws too): by every
+  route to it, refineF returns the closest rank-2 matrix to its F, unit norm, without minimising.
 - the result pipe (file descriptor N) receives one JSON record per line:
   ``{"event": "loaded", "errors": [{origin, message}], "defined": [names]}``; then per call
   ``{"event": "start", "id"}``, ``{"event": "missing", "id", "message"}`` when the function is not
@@ -304,37 +306,16 @@ def _fignums():
         return set()
 
 
-def _identity_refineF(F, *args, **kwargs):
-    return F
+def _refine_switch(fn, swap):
+    """The context of one call under a request's ``swap``: refineF switched off for ``fn`` with
+    ``{"refineF": "off"}`` (``core.refine_switch.switched_off``), else nothing."""
+    import contextlib
 
+    if (swap or {}).get("refineF") != "off":
+        return contextlib.nullcontext()
+    from core import refine_switch
 
-def _swap_in(fn, swap):
-    """Apply a request's ``swap`` to ``fn.__globals__``; returns (globals, {key: old value}) to restore.
-
-    Switched off: every global named refineF or bound to the kit's, and the ``refineF`` of every
-    module among the globals (``import helper`` then ``helper.refineF(...)``, as the 2018-2021
-    hand-ins call it), keyed ``(module,)`` in what is returned.
-    """
-    g = getattr(fn, "__globals__", None)
-    if not isinstance(g, dict) or (swap or {}).get("refineF") != "identity":
-        return None, {}
-    kit = getattr(sys.modules.get("starter.epipolar"), "refineF", None)
-    saved = {k: v for k, v in list(g.items()) if k == "refineF" or (kit is not None and v is kit)}
-    for k in saved:
-        g[k] = _identity_refineF
-    for v in list(g.values()):
-        if isinstance(v, types.ModuleType) and callable(vars(v).get("refineF")) and (v,) not in saved:
-            saved[(v,)] = vars(v)["refineF"]
-            v.refineF = _identity_refineF
-    return g, saved
-
-
-def _swap_out(g, saved):
-    for k, v in saved.items():
-        if isinstance(k, tuple):
-            k[0].refineF = v
-        else:
-            g[k] = v
+    return refine_switch.switched_off(fn)
 
 
 def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
@@ -349,9 +330,11 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     clock = "cpu" if request.get("clock") == "cpu" else "wall"
     now = time.process_time if clock == "cpu" else time.monotonic
     over = f"used more than {seconds:g} s of CPU time" if clock == "cpu" else f"took more than {seconds:g} s"
+    # Left in the finally below, after the timer is disarmed: no alarm may cut the putting back short.
+    switch = _refine_switch(fn, request.get("swap"))
+    switch.__enter__()
     start = now()
     timed_out = exhausted = False
-    swapped, saved = _swap_in(fn, request.get("swap"))
     _arm(seconds, clock)
     try:
         for index, item in enumerate(inputs):
@@ -406,7 +389,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
         pass  # fired between inputs: the remaining ones are reported as skipped by the grader
     finally:
         _disarm()
-        _swap_out(swapped, saved)
+        switch.__exit__(None, None, None)
     plt = sys.modules.get("matplotlib.pyplot")
     if plt is not None:
         try:

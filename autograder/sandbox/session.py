@@ -143,7 +143,7 @@ class Session:
         wall-clock seconds after the request started); budget: no new input is started after it
         (default: seconds; same clock); figure: report the (K, 3) points the function's 3D
         figures show instead of its value; clock: "wall" or "cpu" (default ``limits.clock``);
-        swap: globals of the function replaced for this call only (``{"refineF": "identity"}``).
+        swap: what is switched off for this call only (``{"refineF": "off"}``: refineF, see the child).
         Arguments are plain data (``core.wire``); anything else is a grader bug (ValueError).
         """
         if self.closed:

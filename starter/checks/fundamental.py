@@ -55,10 +55,11 @@ def check_eightpoint(eightpoint, *, scene: NoisyPair | None = None, root=None, v
     F as float points; on the default data the matches lie near their lines (a share of M:
     they are noisy).
 
-    When ``eightpoint`` calls ``refineF`` (by a global name: the notebook's), the exact-match
-    and rank items are judged twice: on F as returned, and on F with refineF switched off
-    (a stand-in that returns F unchanged, put in place for the call and removed after it),
-    since refineF can hide a mistake made before it (a transposed F, a missing rank-2 step).
+    When ``eightpoint`` calls ``refineF`` (by any route: ``core.refine_switch``, the switch the
+    grader uses too), the exact-match, rank and uint16 items are judged twice: on F as returned,
+    and on F with refineF switched off (its minimisation skipped: it returns the closest rank-2
+    matrix to the F it is given, unit norm), since refineF can hide a mistake made before it (a
+    transposed F).
     """
     report = CheckReport("eightpoint")
     tv = scene or two_view()
@@ -104,8 +105,9 @@ def check_eightpoint(eightpoint, *, scene: NoisyPair | None = None, root=None, v
             report.add(f"runs on uint16 points (the data files' type{suffix})", False, out_u.message,
                        mistakes=[mistake("uint16_wraparound", "it fails on uint16 input only")])
     if refines:
-        report.notes.append("your eightpoint calls refineF, so it was also run with refineF switched off (a "
-                            "stand-in returning F unchanged): refineF can hide a mistake made before it")
+        report.notes.append("your eightpoint calls refineF, so it was also run with refineF switched off (its "
+                            "minimisation skipped: it returned the closest rank-2 matrix to the F it was given, "
+                            "unit norm): refineF can hide a mistake made before it")
 
     data, note = default_temple(root) if scene is None else (None, "")
     if scene is None and data is None:

@@ -307,8 +307,9 @@ def eightpoint_cell(mistake=None, refine=False, solver="svd", refine_after_unsca
     return f"import numpy as np\n\n\ndef eightpoint(pts1, pts2, M):\n    {body}\n"
 
 
-# Mistakes that refineF hides (the FAQ's "comment out the call to refineF").
+# A mistake that refineF hides (the FAQ's "comment out the call to refineF").
 EIGHTPOINT_TRANSPOSED_REFINED = eightpoint_cell("f_transposed", refine=True)
+# Valid: no SVD rank-2 step of its own, but refineF (before unscaling) returns rank 2, switched off too.
 EIGHTPOINT_RANK3_REFINED = eightpoint_cell("f_rank3", refine=True)
 # Valid: refineF after unscaling (FAQ Q2.1), and the null vector from eigh instead of the SVD.
 EIGHTPOINT_REFINED_AFTER_UNSCALING = eightpoint_cell(refine=True, refine_after_unscaling=True)
