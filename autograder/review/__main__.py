@@ -4,8 +4,9 @@ similar SUBMISSIONS... --out DIR [--top N] [--keep-starter]
     Look-alike code per homework function.  SUBMISSIONS are submission folders or zips, or class
     folders holding them.  Writes DIR/similarity.csv, DIR/similarity.json, DIR/similarity.html;
     the flagged pairs are also joined into groups (N copies of one solution: one group of N).
-report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--per-question]
-    The class report of a graded folder (see autograder.review.report).
+report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--per-question] [--config FILE]
+    The class report of a graded folder (see autograder.review.report); the library calls it lists
+    are the grader config's ``library_calls`` (default: autograder.review.library_calls).
 """
 
 from __future__ import annotations
@@ -94,6 +95,9 @@ def report_arguments(p) -> None:
     p.add_argument("--assignment", default="HW4 autograded", help="the Canvas assignment column's name")
     p.add_argument("--roster", help="a Canvas gradebook export, to fill Student, ID, SIS User ID and Section")
     p.add_argument("--per-question", action="store_true", help="one Canvas column per question too")
+    p.add_argument("--config", default=None,
+                   help="grader settings (JSON; default: $HW4_GRADER_CONFIG): its library_calls are the library "
+                        "functions listed for the staff")
 
 
 def similar_command(args) -> int:
@@ -108,13 +112,15 @@ def similar_command(args) -> int:
 
 
 def report_command(args) -> int:
+    from autograder.config import load_config
+
     from .report import write_report
 
     t0 = time.perf_counter()
     written = write_report(args.graded, args.out, assignment=args.assignment, roster=args.roster,
-                           per_question=args.per_question)
+                           per_question=args.per_question, library_calls=load_config(args.config).library_names())
     print(f"class report written in {time.perf_counter() - t0:.1f} s:")
-    for k in ("html", "tests", "mistakes", "grades", "canvas"):
+    for k in ("html", "tests", "mistakes", "grades", "canvas", "library_calls"):
         print(f"  {written[k]}")
     return 0
 
@@ -128,7 +134,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         return similar_command(args) if args.command == "similar" else report_command(args)
-    except ValueError as exc:
+    except (FileNotFoundError, ValueError) as exc:  # as core.commands does for python -m autograder
         print(f"error: {exc}", file=sys.stderr)
         return 2
 
