@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import csv
 import itertools
 import json
 import zipfile
@@ -229,10 +230,18 @@ def test_a_batch_that_only_filled_the_stubs_differently_flags_nothing(tmp_path):
 
 
 def test_command_reports_a_group_once_with_its_members(tmp_path, capsys):
-    paths = [_key_copy(tmp_path / f"c{k}", rename=k == 0) for k in range(3)] + [CORPUS / "alice.py", CORPUS / "bo.py"]
-    assert main(["similar", *map(str, paths), "--out", str(tmp_path / "out")]) == 0
+    paths = [_key_copy(tmp_path / f"c{k}", rename=k == 0) for k in range(4)] + [CORPUS / "alice.py", CORPUS / "bo.py"]
+    assert main(["similar", *map(str, paths), "--out", str(tmp_path / "out"), "--top", "1"]) == 0
     data = json.loads((tmp_path / "out" / "similarity.json").read_text())
-    assert [g["members"] for g in data["groups"]] == [["c0", "c1", "c2"]] and "eightpoint" in data["groups"][0]["functions"]
+    assert [g["members"] for g in data["groups"]] == [["c0", "c1", "c2", "c3"]]
+    assert "eightpoint" in data["groups"][0]["functions"]
     page = (tmp_path / "out" / "similarity.html").read_text()
-    assert "c0, c1, c2" in page
-    assert "3: c0, c1, c2" in capsys.readouterr().out
+    assert "c0, c1, c2, c3" in page
+    out = capsys.readouterr().out
+    assert "in 1 group(s)" in out and "4: c0, c1, c2, c3" in out  # 6 flagged pairs per function, one group
+    # beyond --top 1, the pairs that link the group (3 of its 6), ranked as in the full order
+    pairs = data["functions"]["eightpoint"]["pairs"]
+    assert len(pairs) == 3 and all(p["flagged"] for p in pairs)
+    assert {p["a"] for p in pairs} | {p["b"] for p in pairs} == {"c0", "c1", "c2", "c3"}
+    rows = [r for r in csv.DictReader((tmp_path / "out" / "similarity.csv").open()) if r["function"] == "eightpoint"]
+    assert [r["rank"] for r in rows] == [str(p["rank"]) for p in pairs] and {r["group"] for r in rows} == {"1"}

@@ -42,7 +42,9 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
     """Read, compare and write; return the written paths and the timings."""
     from .html import similarity_page
     from .reader import read_submission
-    from .similarity import compare, given_hashes, groups
+    import numpy as np
+
+    from .similarity import FLAG, compare, given_hashes, groups
 
     t0 = time.perf_counter()
     subs = [read_submission(p) for p in expand_submissions(paths)]
@@ -77,7 +79,7 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
     sources = {(s.name, f): fs for s in subs for f, fs in s.functions.items()}
     (out / "similarity.html").write_text(similarity_page(comps, sources, top=min(top, 10), groups=found))
     return {"csv": out / "similarity.csv", "json": out / "similarity.json", "html": out / "similarity.html",
-            "submissions": len(subs), "flagged": sum(p.flagged for ps in ranked.values() for p in ps),
+            "submissions": len(subs), "flagged": sum(int(np.sum(np.triu(c.score >= FLAG, 1))) for c in comps.values()),
             "groups": found,
             "seconds_read": t1 - t0, "seconds_compare": t2 - t1, "seconds_total": time.perf_counter() - t0}
 
@@ -85,7 +87,8 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
 def similar_arguments(p) -> None:
     p.add_argument("submissions", nargs="+")
     p.add_argument("--out", required=True)
-    p.add_argument("--top", type=int, default=20, help="pairs listed per function (flagged pairs always are)")
+    p.add_argument("--top", type=int, default=20,
+                   help="pairs listed per function (and beyond, the flagged pairs linking each group)")
     p.add_argument("--keep-starter", action="store_true", help="do not subtract the handout's code")
 
 

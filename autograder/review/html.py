@@ -59,7 +59,7 @@ def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *
         parts.append(f"<h2 id='{function}'>{html.escape(function)}</h2><p>{len(comp.names)} submissions compared, "
                      f"{flagged} pair(s) to look at"
                      + (f"; without their own code for it: {html.escape(', '.join(comp.skipped))}" if comp.skipped
-                        else "") + (f"; the first {len(pairs)} shown here, all flagged pairs are in similarity.csv"
+                        else "") + (f"; the first {len(pairs)} shown here, the groups above and similarity.csv link every one"
                                     if flagged > len(pairs) else "") + ".</p>")
         if not pairs:
             continue

@@ -110,24 +110,24 @@ def _listed(qualified: str, names: dict[str, str]) -> str | None:
 class _Aliases:
     """What the imports of one file (all cells of a notebook) bind: local name -> qualified name."""
 
-    def __init__(self, trees: Sequence[ast.AST]):
+    def __init__(self, parsed: Sequence[tuple[str, str, ast.AST]]):
         self.bound: dict[str, str] = {}
         self.star: list[str] = []
-        self.imports: list[tuple[str, str, ast.stmt]] = []  # (local name, qualified name, statement)
-        for tree in trees:
+        self.imports: list[tuple[str, str, ast.stmt, int]] = []  # (local name, qualified name, statement, source)
+        for k, (_, text, tree) in enumerate(parsed):
             for node in ast.walk(tree):
                 if isinstance(node, ast.Import):
                     for a in node.names:
                         local = a.asname or a.name.split(".")[0]
                         self.bound[local] = a.name if a.asname else local
-                        self.imports.append((local, a.name, node))
+                        self.imports.append((local, a.name, node, k))
                 elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
                     for a in node.names:
                         if a.name == "*":
                             self.star.append(node.module)
                             continue
                         self.bound[a.asname or a.name] = f"{node.module}.{a.name}"
-                        self.imports.append((a.asname or a.name, f"{node.module}.{a.name}", node))
+                        self.imports.append((a.asname or a.name, f"{node.module}.{a.name}", node, k))
 
     def resolve(self, node: ast.AST, names: dict[str, str]) -> str | None:
         """The qualified name of a Name or Attribute chain, or None when it is not a plain chain."""
@@ -142,6 +142,17 @@ class _Aliases:
             starred = [f"{m}.{node.id}" for m in self.star if _listed(f"{m}.{node.id}", names)]
             head = starred[0] if starred else node.id
         return ".".join([head, *reversed(attrs)])
+
+    def words(self, names: dict[str, str]) -> set[str]:
+        """Every identifier through which code can reach a listed name: a text holding none of them
+        holds no use, and is not visited."""
+        out = {n.split(".")[0] for n in names}
+        for local, qualified in self.bound.items():
+            if _listed(qualified, names) or any(n.startswith(qualified + ".") for n in names):
+                out.add(local)
+        for module in self.star:
+            out.update(n[len(module) + 1:].split(".")[0] for n in names if n.startswith(module + "."))
+        return out
 
 
 def _one_line(segment: str) -> str:
@@ -203,27 +214,41 @@ def find_in_sources(sources: Sequence[tuple[str, str]], names: dict[str, str] | 
     """(uses found, notes) in ``sources``: (origin, Python text) pairs sharing one namespace (the
     cells of one notebook, or one file).  A text that does not parse is a note, not an error."""
     names = library_names() if names is None else names
-    parsed, notes = [], []
-    for origin, text in sources:
-        text = _blank_magics(text)
-        try:
-            parsed.append((origin, text, ast.parse(text)))
-        except (SyntaxError, ValueError) as exc:
-            notes.append(f"{origin} does not parse: {getattr(exc, 'msg', exc)}")
-    aliases = _Aliases([tree for _, _, tree in parsed])
+    # Every use goes through an import or a module named in full, so a text that never writes an
+    # import, the first part of a listed name ("cv2", "scipy") or an alias of one holds none: it
+    # is not parsed (most of the cells of a class; a cell that does not parse is then a note only
+    # when it could hold a use).
+    texts = [(origin, _blank_magics(text)) for origin, text in sources]
+    notes: list[str] = []
+
+    def parse(chosen) -> list[tuple[str, str, ast.AST]]:
+        out = []
+        for origin, text in chosen:
+            try:
+                out.append((origin, text, ast.parse(text)))
+            except (SyntaxError, ValueError) as exc:
+                notes.append(f"{origin} does not parse: {getattr(exc, 'msg', exc)}")
+        return out
+
+    with_imports = parse([(o, t) for o, t in texts if "import" in t])
+    aliases = _Aliases(with_imports)
+    words = aliases.words(names)
+    parsed = with_imports + parse([(o, t) for o, t in texts if "import" not in t and any(w in t for w in words)])
     found, used = [], set()
     for origin, text, tree in parsed:
+        if not any(w in text for w in words):
+            continue
         finder = _Finder(aliases, names, text, origin)
         finder.visit(tree)
         found += finder.found
         used |= finder.used
-    for origin, text, tree in parsed:
-        for local, qualified, stmt in aliases.imports:
-            listed = _listed(qualified, names)
-            if listed and local not in used and any(stmt is n for n in ast.walk(tree)):
-                found.append(LibraryCall(listed, names[listed], "import",
-                                         _one_line(ast.get_source_segment(text, stmt) or ast.unparse(stmt)),
-                                         f"{origin}, line {stmt.lineno}", ""))
+    for local, qualified, stmt, k in aliases.imports:
+        listed = _listed(qualified, names)
+        if listed and local not in used:
+            origin, text, _ = parsed[k]
+            found.append(LibraryCall(listed, names[listed], "import",
+                                     _one_line(ast.get_source_segment(text, stmt) or ast.unparse(stmt)),
+                                     f"{origin}, line {stmt.lineno}", ""))
     return found, notes
 
 

@@ -87,22 +87,39 @@ class FunctionComparison:
     skipped: list = field(default_factory=list)
 
     def ranked(self, limit: int | None = None, *, flagged_too: bool = True) -> list[Pair]:
-        """Pairs best first (ties by names); at most ``limit`` of them, plus every flagged pair
-        beyond that when ``flagged_too``."""
+        """Pairs best first (ties by names); at most ``limit`` of them, plus, beyond that when
+        ``flagged_too``, the flagged pairs that link each submission to its group (the strongest
+        links first, as in a maximum spanning forest): N copies of one solution are listed as
+        N - 1 pairs, not N(N-1)/2, and every member of every group is in the list."""
         n = len(self.names)
         if n < 2:
             return []
         iu, ju = np.triu_indices(n, 1)
         s = self.score[iu, ju]
         order = np.lexsort((ju, iu, -s))
-        keep = len(order) if limit is None else max(limit, int(np.sum(s >= FLAG)) if flagged_too else 0)
+        chosen = list(enumerate(order[:limit]))  # (rank - 1, pair index): all of them without a limit
+        if limit is not None and flagged_too:
+            parent = list(range(n))
+
+            def root(x: int) -> int:
+                while parent[x] != x:
+                    parent[x] = parent[parent[x]]
+                    x = parent[x]
+                return x
+
+            for pos, k in enumerate(order[:int(np.sum(s >= FLAG))]):
+                a, b = root(int(iu[k])), root(int(ju[k]))
+                if a != b:
+                    parent[a] = b
+                    if pos >= limit:
+                        chosen.append((pos, k))
         out = []
-        for r, k in enumerate(order[:keep], start=1):
+        for pos, k in chosen:
             i, j = int(iu[k]), int(ju[k])
             a, b = sorted((self.names[i], self.names[j]))
             out.append(Pair(self.function, a, b, float(self.score[i, j]), float(self.jaccard[i, j]),
                             float(self.containment[i, j]), float(self.shared[i, j]),
-                            bool(self.score[i, j] >= FLAG), r))
+                            bool(self.score[i, j] >= FLAG), pos + 1))
         return out
 
     def pair_score(self, a: str, b: str) -> float:
