@@ -3,8 +3,9 @@
 Per submission the batch writes ``<out>/<name>/results.json`` (Gradescope's schema),
 ``feedback.md`` (what the student reads) and ``grading.json`` (for staff: scores, per-test scores,
 digests, the configuration, what the code printed, grader notes), then ``<out>/grades.csv``
-(``autograder.gradebook``) with every submission graded into ``<out>``, ``<out>/summary.md`` and
-``<out>/configuration.json``.  Each worker thread has its own Sandbox; each submission is graded
+(``autograder.gradebook``) with every submission graded into ``<out>``, ``<out>/summary.md`` (for
+staff: how it was graded, failures, and the library calls that do the homework's work, found in
+the code by ``autograder.review.library_calls``) and ``<out>/configuration.json``.  Each worker thread has its own Sandbox; each submission is graded
 by ``autograder.grade.grade_submission``.
 
 What makes it safe to stop and resume:
@@ -55,6 +56,7 @@ from .canary import check as canary_check
 from .grade import KIT_ROOT, hidden_cache
 from .hidden.inputs import build_hidden_inputs
 from .results import SubmissionResult
+from .review.library_calls import find_in_class
 from .sandbox import ResourceLimits, Sandbox
 
 __all__ = ["BatchInterrupted", "BatchRecord", "ConfigurationMismatch", "grade_batch", "open_sandbox",
@@ -561,7 +563,8 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         everyone = ordered + earlier_records(out, {r.name for r in ordered} | set(cancelled), key)
         write_grades_csv(out / "grades.csv", everyone)
         _write_configuration(out, record, levels | {r.isolation for r in everyone if r.isolation})
-        write_summary(out / "summary.md", everyone, record, cancelled=cancelled, note=note)
+        calls = find_in_class([(r.name, r.path) for r in everyone], config.library_names())
+        write_summary(out / "summary.md", everyone, record, cancelled=cancelled, note=note, library_calls=calls)
         return ordered
 
     def hard_exit() -> None:

@@ -28,7 +28,13 @@ to share one gradebook, and ``configuration_changes`` says in words how two reco
 Config file (JSON, every key optional)::
 
     {"secret": "a long random string", "official_data": "/path/to/course-data",
-     "time_scale": 1.0, "match_points": 40, "ba_points": 20, "car_times": 3}
+     "time_scale": 1.0, "match_points": 40, "ba_points": 20, "car_times": 3,
+     "library_calls": ["cv2.findFundamentalMat", "cv2.triangulatePoints"]}
+
+``library_calls`` is not a grading setting: it names the library functions whose use the staff
+are shown (summary.md, the class report; see ``autograder.review.library_calls``, whose
+``DEFAULT_LIBRARY_CALLS`` is used without it), so it is left out of ``fingerprint`` and of the
+configuration record, and changing it regrades nothing.
 """
 
 from __future__ import annotations
@@ -91,6 +97,9 @@ class GradingConfig:
         Multiplies every time limit given to student code (tests use less than 1).
     load_timeout : float
         Seconds to load a submission's code in the sandbox.
+    library_calls : tuple of str or None
+        Dotted names of the library functions to list for the staff (None: the kit's default
+        list); changes no grade, so it is not part of the configuration (module docstring).
     source : Path or None
         The file the settings were read from (hidden from the sandbox); None for the defaults.
     """
@@ -104,6 +113,7 @@ class GradingConfig:
     car_times: int = 3
     time_scale: float = 1.0
     load_timeout: float = 90.0
+    library_calls: tuple[str, ...] | None = None
     source: Path | None = field(default=None, compare=False)
 
     def __post_init__(self):
@@ -117,6 +127,16 @@ class GradingConfig:
                 raise ValueError(f"{name}: expected an integer >= {lo}, got {value!r}")
         as_positive_scalar(self.time_scale, "time_scale")
         as_positive_scalar(self.load_timeout, "load_timeout")
+        if self.library_calls is not None:
+            from .review.library_calls import library_names
+
+            library_names(self.library_calls)  # raises ValueError naming the key
+
+    def library_names(self) -> dict[str, str]:
+        """The library names to list for the staff -> what of the homework each one does."""
+        from .review.library_calls import library_names
+
+        return library_names(self.library_calls)
 
     @property
     def is_dev(self) -> bool:
@@ -146,11 +166,12 @@ class GradingConfig:
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source"}
         out["temples"] = [dataclasses.asdict(t) for t in self.temples]
         out["official_data"] = str(self.official_data) if self.official_data is not None else None
+        out["library_calls"] = list(self.library_calls) if self.library_calls is not None else None
         return out
 
     def fingerprint(self) -> str:
         """A digest of everything that changes grades (secret included, never shown in clear)."""
-        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source"}
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in _NOT_GRADING}
         fields["official_present"] = self.official_dir() is not None
         fields["version"] = GRADER_VERSION
         text = json.dumps(fields, sort_keys=True, default=str)
@@ -158,7 +179,9 @@ class GradingConfig:
 
 
 _FILE_KEYS = {"secret", "temples", "use_default_data", "official_data", "match_points", "ba_points",
-              "car_times", "time_scale", "load_timeout", "comment"}
+              "car_times", "time_scale", "load_timeout", "library_calls", "comment"}
+# fields that change no grade: not in the fingerprint nor in the configuration record
+_NOT_GRADING = ("source", "library_calls")
 
 
 def load_config(path: str | os.PathLike | None = None, *, environ: dict | None = None,
@@ -191,8 +214,18 @@ def load_config(path: str | os.PathLike | None = None, *, environ: dict | None =
             raise ValueError(f"config: expected a JSON object in {source}, got {type(data).__name__}")
         unknown = set(data) - _FILE_KEYS
         if unknown:
-            raise ValueError(f"config: expected keys among {sorted(_FILE_KEYS)}, got also {sorted(unknown)}")
+            import difflib
+
+            hints = [f"{k!r} (did you mean {close[0]!r}?)" if (close := difflib.get_close_matches(k, _FILE_KEYS, 1))
+                     else repr(k) for k in sorted(unknown)]
+            raise ValueError(f"config: unknown key {', '.join(hints)} in {source}; expected keys among "
+                             f"{sorted(_FILE_KEYS)}")
         values = {k: v for k, v in data.items() if k != "comment"}
+        if values.get("library_calls") is not None:
+            if not isinstance(values["library_calls"], list):
+                raise ValueError("library_calls: expected a list of dotted names like \"cv2.findFundamentalMat\", "
+                                 f"got {values['library_calls']!r} in {source}")
+            values["library_calls"] = tuple(values["library_calls"])
         if "temples" in values:
             values["temples"] = tuple(_temple_spec(t) for t in values["temples"])
         if values.get("official_data") is not None:
@@ -306,7 +339,7 @@ def configuration(config: GradingConfig, *, extra_tests=(), isolation: str | Non
     """
     official = config.official_dir()
     settings = config.to_dict()
-    for name in ("secret", "official_data", "use_default_data"):
+    for name in ("secret", "official_data", "use_default_data", *_NOT_GRADING):
         settings.pop(name, None)
     record = {
         "grader_version": GRADER_VERSION,

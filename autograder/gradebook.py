@@ -91,8 +91,10 @@ def earlier_records(out: Path, exclude: set[str], key: str | None = None) -> lis
 
 
 def write_summary(path: Path, records: Sequence, configuration: dict, *, cancelled: Sequence[str] = (),
-                  note: str = "") -> Path:
-    """``summary.md``: the configuration, a warning for a development secret, counts, failures."""
+                  note: str = "", library_calls: dict | None = None) -> Path:
+    """``summary.md``: the configuration, a warning for a development secret, counts, failures, and
+    the library calls to look at (``library_calls``: student -> (LibraryCall list, notes), from
+    ``autograder.review.library_calls.find_in_class``; None: not looked for)."""
     c = configuration
     data = c.get("data") or {}
     levels = sorted({r.isolation for r in records if r.isolation})
@@ -120,4 +122,27 @@ def write_summary(path: Path, records: Sequence, configuration: dict, *, cancell
         lines += ["", "## Could not be graded", ""] + [f"- {r.name}: {r.failure}" for r in failed]
     if cancelled:
         lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {n}" for n in cancelled]
+    if library_calls is not None:
+        lines += ["", "## Library calls to look at", ""] + library_calls_markdown(library_calls)
     return write_atomic(path, "\n".join(lines) + "\n")
+
+
+def library_calls_markdown(found: dict) -> list[str]:
+    """The lines of summary.md's library-call section (student -> (LibraryCall list, notes))."""
+    from .review.library_calls import markdown_code
+
+    with_calls = {s: calls for s, (calls, _) in found.items() if calls}
+    lines = [f"Uses of library functions that do what the homework asks students to write, found in the code "
+             f"(not run): {len(with_calls)} of {len(found)} submissions. A reason to read the code, not a "
+             f"finding: no points were taken for them, and students are not shown this list. The names "
+             f"looked for are the config's `library_calls` (default: autograder.review.library_calls).", ""]
+    for student in sorted(with_calls):
+        for c in with_calls[student]:
+            inside = f" in {markdown_code(c.function)}" if c.function else ""
+            does = f" ({c.replaces})" if c.replaces else ""
+            lines.append(f"- {student}: {markdown_code(c.name)}{does}, {c.kind}{inside}: {markdown_code(c.code)} "
+                         f"({c.where})")
+    unread = sorted(s for s, (_, notes) in found.items() if notes)
+    if unread:  # the reasons are in each note; here, only whose list may be incomplete
+        lines += ["", f"Code not read in full (a cell that does not parse, a file gone): {', '.join(unread)}."]
+    return lines

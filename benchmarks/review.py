@@ -5,7 +5,8 @@
 Generates ``--count`` synthetic submissions (one notebook each, every homework function taken
 from the answer key or the review corpus and disguised: variables renamed, comments added) and
 ``--count`` synthetic graded results (Gradescope results.json with random passes and named
-mistakes), then times ``python -m autograder.review similar`` and ``report`` on them (in-process).
+mistakes), then times ``python -m autograder.review similar`` and ``report`` on them (in-process),
+and the library-call scan of the submissions (which the report and a grade run's summary.md do).
 With ``--grade``, also times grading the answer key once with ``python -m autograder grade``
 (one submission, default settings) to set the figures beside the cost of grading.
 """
@@ -118,6 +119,13 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         write_report(base / "graded", base / "report")
         print(f"class report, {args.count} results: {time.perf_counter() - t0:.2f} s")
+        from autograder.review.library_calls import find_in_class
+
+        t0 = time.perf_counter()
+        found = find_in_class([(p.name, p) for p in subs])
+        print(f"library calls (summary.md and the class report read each submission's code once), "
+              f"{args.count} submissions: {time.perf_counter() - t0:.2f} s, "
+              f"{sum(bool(calls) for calls, _ in found.values())} with calls")
         if args.grade:
             key = subprocess.run([sys.executable, "-m", "autograder", "key", "--out", str(base / "key")], check=False,
                            cwd=ROOT, capture_output=True, text=True)

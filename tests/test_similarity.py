@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import ast
+import csv
 import itertools
 import json
 import zipfile
@@ -13,7 +15,7 @@ import pytest
 from autograder.review.__main__ import main
 from autograder.review.fingerprint import fingerprint_function
 from autograder.review.reader import SubmissionCode, functions_in_source, read_submission
-from autograder.review.similarity import FLAG, compare
+from autograder.review.similarity import FLAG, MIN_SHARED, compare, groups
 from tests.corpus import variants
 
 CORPUS = Path(__file__).parent / "review_corpus"
@@ -143,3 +145,103 @@ def test_command_writes_ranked_csv_json_and_an_offline_page(tmp_path):
     rows = (out / "similarity.csv").read_text().splitlines()
     assert rows[0].startswith("function,rank,a,b,score") and len(rows) > 10
     assert main(["similar", str(tmp_path / "missing"), "--out", str(out)]) == 2
+
+
+def _renamed(source: str) -> str:
+    """``source`` with every variable assigned inside a function (its parameters excepted) renamed, and
+    reformatted by ast.unparse, as a student disguising a copy would."""
+    tree = ast.parse(source)
+    for fn in [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)]:
+        params = {a.arg for a in ast.walk(fn.args) if isinstance(a, ast.arg)}
+        local = {n.id for n in ast.walk(fn) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)} - params
+        for n in ast.walk(fn):
+            if isinstance(n, ast.Name) and n.id in local:
+                n.id = f"my_{n.id.lower()}_var"
+    return ast.unparse(tree)
+
+
+def _key_copy(folder: Path, rename: bool) -> Path:
+    """A copy of the answer key's notebooks, its variables renamed when ``rename``."""
+    folder.mkdir(parents=True)
+    for nb_path in sorted((KIT / "notebooks" / "key").glob("*.ipynb")):
+        nb = nbformat.read(nb_path, as_version=4)
+        for cell in nb.cells:
+            if rename and cell.cell_type == "code" and "def " in cell.source:
+                cell.source = _renamed(cell.source)
+        nbformat.write(nb, folder / nb_path.name)
+    return folder
+
+
+def test_five_copies_of_the_key_are_one_group_whatever_the_batch_shares(tmp_path):
+    """Five copies of the whole answer key (two renamed) among honest students: the copies are the
+    only code shared by every submission that defines most functions, and still one group."""
+    copies = [read_submission(_key_copy(tmp_path / f"copy{k}", rename=k < 2)) for k in range(5)]
+    assert copies[0].functions["eightpoint"].source != copies[2].functions["eightpoint"].source  # renamed
+    honest = [read_submission(CORPUS / f"{n}.py") for n in ("alice", "bo", "chen", "dana")]
+    comps = compare(copies + honest)
+    names = {s.name for s in copies}
+    found = groups(comps)
+    assert len(found) == 1 and set(found[0].members) == names, found
+    # every function in which the key has enough code of its own flags every pair of the copies,
+    # also the functions that only the copies define (there, every line is shared by the whole batch)
+    long_enough = [f for f, c in comps.items()
+                   if min(len(c.fingerprints[c.names.index(n)].hashes) for n in names) >= 2 * MIN_SHARED]
+    assert {"eightpoint", "triangulate", "findM2", "bundleAdjustment"} <= set(long_enough), long_enough
+    for f in long_enough:
+        assert {(p.a, p.b) for p in comps[f].ranked() if p.flagged} == set(itertools.combinations(sorted(names), 2)), f
+
+
+def _filled_stubs(folder: Path, answers: Path) -> Path:
+    """The student notebooks with each stub's body replaced by the body of ``answers``' definition
+    (the stub's def line and docstring kept), as a student who filled the stubs hands them in."""
+    theirs = {f.name: f for f in functions_in_source(answers.read_text(), answers.name)}
+    folder.mkdir(parents=True)
+    filled = 0
+    for nb_path in sorted((KIT / "notebooks").glob("q*.ipynb")):
+        nb = nbformat.read(nb_path, as_version=4)
+        for cell in nb.cells:
+            if cell.cell_type != "code":
+                continue
+            try:
+                stubs = functions_in_source(cell.source, "stub")
+            except SyntaxError:
+                continue
+            for stub in stubs:
+                if stub.name in theirs:
+                    node = ast.parse(stub.source).body[0]
+                    keep = node.body[0] if ast.get_docstring(node) else None
+                    head = stub.source.split("\n")[:(keep.end_lineno if keep else node.body[0].lineno - 1)]
+                    body = ast.parse(theirs[stub.name].source).body[0].body
+                    lines = theirs[stub.name].source.split("\n")
+                    start = body[1 if ast.get_docstring(ast.parse(theirs[stub.name].source).body[0]) else 0].lineno
+                    cell.source = cell.source.replace(stub.source, "\n".join(head + lines[start - 1:]))
+                    filled += 1
+        nbformat.write(nb, folder / nb_path.name)
+    assert filled >= 3
+    return folder
+
+
+def test_a_batch_that_only_filled_the_stubs_differently_flags_nothing(tmp_path):
+    subs = [read_submission(_filled_stubs(tmp_path / n, CORPUS / f"{n}.py")) for n in ("alice", "bo", "chen", "dana")]
+    assert all({"eightpoint", "essentialMatrix", "triangulate"} <= set(s.functions) for s in subs)
+    comps = compare(subs)
+    assert sum(len(c.names) for c in comps.values()) >= 12  # their own code was compared, not skipped
+    assert groups(comps) == [] and not any(p.flagged for c in comps.values() for p in c.ranked())
+
+
+def test_command_reports_a_group_once_with_its_members(tmp_path, capsys):
+    paths = [_key_copy(tmp_path / f"c{k}", rename=k == 0) for k in range(4)] + [CORPUS / "alice.py", CORPUS / "bo.py"]
+    assert main(["similar", *map(str, paths), "--out", str(tmp_path / "out"), "--top", "1"]) == 0
+    data = json.loads((tmp_path / "out" / "similarity.json").read_text())
+    assert [g["members"] for g in data["groups"]] == [["c0", "c1", "c2", "c3"]]
+    assert "eightpoint" in data["groups"][0]["functions"]
+    page = (tmp_path / "out" / "similarity.html").read_text()
+    assert "c0, c1, c2, c3" in page
+    out = capsys.readouterr().out
+    assert "in 1 group(s)" in out and "4: c0, c1, c2, c3" in out  # 6 flagged pairs per function, one group
+    # beyond --top 1, the pairs that link the group (3 of its 6), ranked as in the full order
+    pairs = data["functions"]["eightpoint"]["pairs"]
+    assert len(pairs) == 3 and all(p["flagged"] for p in pairs)
+    assert {p["a"] for p in pairs} | {p["b"] for p in pairs} == {"c0", "c1", "c2", "c3"}
+    rows = [r for r in csv.DictReader((tmp_path / "out" / "similarity.csv").open()) if r["function"] == "eightpoint"]
+    assert [r["rank"] for r in rows] == [str(p["rank"]) for p in pairs] and {r["group"] for r in rows} == {"1"}

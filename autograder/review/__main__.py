@@ -2,9 +2,11 @@
 
 similar SUBMISSIONS... --out DIR [--top N] [--keep-starter]
     Look-alike code per homework function.  SUBMISSIONS are submission folders or zips, or class
-    folders holding them.  Writes DIR/similarity.csv, DIR/similarity.json, DIR/similarity.html.
-report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--per-question]
-    The class report of a graded folder (see autograder.review.report).
+    folders holding them.  Writes DIR/similarity.csv, DIR/similarity.json, DIR/similarity.html;
+    the flagged pairs are also joined into groups (N copies of one solution: one group of N).
+report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--per-question] [--config FILE]
+    The class report of a graded folder (see autograder.review.report); the library calls it lists
+    are the grader config's ``library_calls`` (default: autograder.review.library_calls).
 """
 
 from __future__ import annotations
@@ -40,7 +42,9 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
     """Read, compare and write; return the written paths and the timings."""
     from .html import similarity_page
     from .reader import read_submission
-    from .similarity import compare, given_hashes
+    import numpy as np
+
+    from .similarity import FLAG, compare, given_hashes, groups
 
     t0 = time.perf_counter()
     subs = [read_submission(p) for p in expand_submissions(paths)]
@@ -55,31 +59,36 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     ranked = {f: c.ranked(top) for f, c in comps.items()}
+    found = groups(comps)
+    group_of = {name: k for k, g in enumerate(found, start=1) for name in g.members}
     with open(out / "similarity.csv", "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["function", "rank", "a", "b", "score", "jaccard", "containment", "shared", "look_at"])
+        w.writerow(["function", "rank", "a", "b", "score", "jaccard", "containment", "shared", "look_at", "group"])
         for f, pairs in ranked.items():
             for p in pairs:
                 d = p.as_dict()
                 w.writerow([f, d["rank"], d["a"], d["b"], d["score"], d["jaccard"], d["containment"], d["shared"],
-                            "look at these" if p.flagged else ""])
+                            "look at these" if p.flagged else "", group_of.get(p.a, "") if p.flagged else ""])
     (out / "similarity.json").write_text(json.dumps({
         "submissions": names,
+        "groups": [g.as_dict() for g in found],
         "functions": {f: {"compared": comps[f].names, "without_own_code": comps[f].skipped,
                           "pairs": [p.as_dict() for p in pairs]} for f, pairs in ranked.items()},
         "notes": {s.name: list(s.notes) for s in subs if s.notes},
     }, indent=1))
     sources = {(s.name, f): fs for s in subs for f, fs in s.functions.items()}
-    (out / "similarity.html").write_text(similarity_page(comps, sources, top=min(top, 10)))
+    (out / "similarity.html").write_text(similarity_page(comps, sources, top=min(top, 10), groups=found))
     return {"csv": out / "similarity.csv", "json": out / "similarity.json", "html": out / "similarity.html",
-            "submissions": len(subs), "flagged": sum(p.flagged for ps in ranked.values() for p in ps),
+            "submissions": len(subs), "flagged": sum(int(np.sum(np.triu(c.score >= FLAG, 1))) for c in comps.values()),
+            "groups": found,
             "seconds_read": t1 - t0, "seconds_compare": t2 - t1, "seconds_total": time.perf_counter() - t0}
 
 
 def similar_arguments(p) -> None:
     p.add_argument("submissions", nargs="+")
     p.add_argument("--out", required=True)
-    p.add_argument("--top", type=int, default=20, help="pairs listed per function (flagged pairs always are)")
+    p.add_argument("--top", type=int, default=20,
+                   help="pairs listed per function (and beyond, the flagged pairs linking each group)")
     p.add_argument("--keep-starter", action="store_true", help="do not subtract the handout's code")
 
 
@@ -89,25 +98,32 @@ def report_arguments(p) -> None:
     p.add_argument("--assignment", default="HW4 autograded", help="the Canvas assignment column's name")
     p.add_argument("--roster", help="a Canvas gradebook export, to fill Student, ID, SIS User ID and Section")
     p.add_argument("--per-question", action="store_true", help="one Canvas column per question too")
+    p.add_argument("--config", default=None,
+                   help="grader settings (JSON; default: $HW4_GRADER_CONFIG): its library_calls are the library "
+                        "functions listed for the staff")
 
 
 def similar_command(args) -> int:
     done = run_similar(args.submissions, args.out, top=args.top, keep_starter=args.keep_starter)
     print(f"{done['submissions']} submissions compared in {done['seconds_total']:.1f} s; "
-          f"{done['flagged']} pair(s) to look at.")
+          f"{done['flagged']} pair(s) to look at, in {len(done['groups'])} group(s).")
+    for g in done["groups"]:
+        print(f"  {len(g.members)}: {', '.join(g.members)} ({', '.join(g.functions)})")
     for k in ("csv", "json", "html"):
         print(f"  {done[k]}")
     return 0
 
 
 def report_command(args) -> int:
+    from autograder.config import load_config
+
     from .report import write_report
 
     t0 = time.perf_counter()
     written = write_report(args.graded, args.out, assignment=args.assignment, roster=args.roster,
-                           per_question=args.per_question)
+                           per_question=args.per_question, library_calls=load_config(args.config).library_names())
     print(f"class report written in {time.perf_counter() - t0:.1f} s:")
-    for k in ("html", "tests", "mistakes", "grades", "canvas"):
+    for k in ("html", "tests", "mistakes", "grades", "canvas", "library_calls"):
         print(f"  {written[k]}")
     return 0
 
@@ -121,7 +137,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         return similar_command(args) if args.command == "similar" else report_command(args)
-    except ValueError as exc:
+    except (FileNotFoundError, ValueError) as exc:  # as core.commands does for python -m autograder
         print(f"error: {exc}", file=sys.stderr)
         return 2
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import html
 
-from .similarity import FLAG, FunctionComparison
+from .similarity import FLAG, FunctionComparison, Group
 
 __all__ = ["similarity_page", "STYLE"]
 
@@ -27,11 +27,13 @@ def _code(source: str, hits: set[int]) -> str:
     return "<pre>" + "\n".join(rows) + "</pre>"
 
 
-def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *, top: int = 10) -> str:
-    """The page: per function, the ranked pairs (flagged ones and at least ``top``), each with both
-    sources side by side and the lines carrying common fingerprints highlighted.
+def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *, top: int = 10,
+                    groups: list[Group] = ()) -> str:
+    """The page: the groups first, then per function the ranked pairs (flagged ones and at least
+    ``top``), each with both sources side by side and the lines carrying common fingerprints
+    highlighted.
 
-    sources: (submission name, function) -> FunctionSource.
+    sources: (submission name, function) -> FunctionSource; groups: ``similarity.groups(comparisons)``.
     """
     parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>Look-alike code</title>",
              f"<style>{STYLE}</style></head><body><h1>Look-alike code: pairs to look at</h1>",
@@ -39,14 +41,25 @@ def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *
              "statement order, comments and formatting are set aside, with the handout's code left out. "
              f"Pairs scoring {FLAG:g} or more are marked <span class='flag'>look at these</span>. "
              "A high score is a reason to read the two side by side, not a finding: short functions, "
-             "shared sources and common textbook code can look alike. The course staff decide.</p>"]
+             "shared sources and common textbook code can look alike. The course staff decide.</p>",
+             "<h2 id='groups'>Groups</h2>"]
+    if groups:
+        parts.append("<p>Submissions linked by flagged pairs, in any function: read each group together.</p>"
+                     "<table><tr><th>submissions</th><th>who</th><th>flagged in (highest score)</th></tr>")
+        for g in groups:
+            where = ", ".join(f"<a href='#{html.escape(f)}'>{html.escape(f)}</a> {s:.2f}" for f, s in g.functions.items())
+            parts.append(f"<tr class='flag'><td>{len(g.members)}</td><td>{html.escape(', '.join(g.members))}</td>"
+                         f"<td>{where}</td></tr>")
+        parts.append("</table>")
+    else:
+        parts.append("<p>No pair scored high enough to look at.</p>")
     for function, comp in comparisons.items():
         pairs = comp.ranked(top, flagged_too=False)
         flagged = int(((comp.score >= FLAG).sum()) // 2) if len(comp.names) else 0
         parts.append(f"<h2 id='{function}'>{html.escape(function)}</h2><p>{len(comp.names)} submissions compared, "
                      f"{flagged} pair(s) to look at"
                      + (f"; without their own code for it: {html.escape(', '.join(comp.skipped))}" if comp.skipped
-                        else "") + (f"; the first {len(pairs)} shown here, all flagged pairs are in similarity.csv"
+                        else "") + (f"; the first {len(pairs)} shown here, the groups above and similarity.csv link every one"
                                     if flagged > len(pairs) else "") + ".</p>")
         if not pairs:
             continue

@@ -12,7 +12,11 @@ with name "Q2 <check>", score, max_score, status, output) and writes into ``out`
 - ``canvas.csv``: the columns of Canvas's gradebook import (Student, ID, SIS User ID, SIS Login
   ID, Section, then one column per assignment, with a "Points Possible" row).  Without a roster
   the student's folder name goes in SIS Login ID; with ``roster`` (a Canvas gradebook export)
-  the students are matched on SIS Login ID, SIS User ID or ID and their row is filled from it.
+  the students are matched on SIS Login ID, SIS User ID or ID and their row is filled from it;
+- ``library_calls.csv``: each use of a library function that does what the homework asks students
+  to write (``autograder.review.library_calls``), found in the code each ``grading.json`` names
+  (staff's files; a submission moved since is listed as not read), also a section of the page.
+  For the staff: no points are taken, and nothing of it reaches a student's feedback.
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from core.manifest import QUESTIONS
 from core.text import points, write_atomic
 
 from .html import STYLE
+from .library_calls import find_in_class
 
 __all__ = ["ClassReport", "CANVAS_COLUMNS", "load_results", "build_report", "write_report", "MISTAKE_PATTERN"]
 
@@ -159,13 +164,39 @@ def canvas_rows(rep: ClassReport, assignment: str, roster: list[dict] | None = N
     return rows
 
 
+def _submission_paths(graded: Path, students) -> list[tuple[str, str]]:
+    """(student, the submission path its grading.json records, "" when none) for each student."""
+    out = []
+    for s in students:
+        try:
+            path = json.loads((graded / s / "grading.json").read_text(encoding="utf-8")).get("path") or ""
+        except (OSError, ValueError, AttributeError):
+            path = ""
+        out.append((s, str(path)))
+    return out
+
+
 def write_report(graded: str | Path, out: str | Path, *, assignment: str = "HW4 autograded",
-                 roster: str | Path | None = None, per_question: bool = False) -> dict:
-    """Write the report files (see the module's docstring) into ``out``; return their paths by kind."""
+                 roster: str | Path | None = None, per_question: bool = False,
+                 library_calls: dict[str, str] | None = None) -> dict:
+    """Write the report files (see the module's docstring) into ``out``; return their paths by kind.
+
+    library_calls: the names to look for -> what they do (``GradingConfig.library_names()``;
+    None: the default list).
+    """
     graded, out = Path(graded), Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    rep = build_report(load_results(graded))
+    results = load_results(graded)
+    rep = build_report(results)
     written = {}
+    calls = find_in_class(_submission_paths(graded, rep.students), library_calls)
+    with open(out / "library_calls.csv", "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["student", "library_function", "replaces", "kind", "in_function", "code", "where"])
+        for s in rep.students:
+            for c in calls[s][0]:
+                w.writerow([s, c.name, c.replaces, c.kind, c.function, c.code, c.where])
+    written["library_calls"] = out / "library_calls.csv"
     # tests.csv
     with open(out / "tests.csv", "w", newline="") as fh:
         w = csv.writer(fh)
@@ -205,7 +236,7 @@ def write_report(graded: str | Path, out: str | Path, *, assignment: str = "HW4 
         p = out / f"histogram_{key.replace('.', '_')}.png"
         p.write_bytes(data)
         written[f"histogram_{key}"] = p
-    write_atomic(out / "report.html", _page(rep, pngs, mistakes))
+    write_atomic(out / "report.html", _page(rep, pngs, mistakes, calls))
     written["html"] = out / "report.html"
     return written
 
@@ -218,7 +249,7 @@ def _img(data: bytes, alt: str) -> str:
     return f"<img alt='{html.escape(alt)}' src='data:image/png;base64,{base64.b64encode(data).decode()}'>"
 
 
-def _page(rep: ClassReport, pngs: dict, mistakes) -> str:
+def _page(rep: ClassReport, pngs: dict, mistakes, calls: dict) -> str:
     n = len(rep.students)
     e = html.escape
     parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>Class report</title>",
@@ -250,5 +281,29 @@ def _page(rep: ClassReport, pngs: dict, mistakes) -> str:
         parts.append("</table>")
     else:
         parts.append("<p>No known mistake was named in the feedback.</p>")
+    parts.append(_library_calls_section(calls))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _library_calls_section(calls: dict) -> str:
+    """The page's list of library calls (student -> (LibraryCall list, notes)); student code escaped."""
+    e = html.escape
+    with_calls = [s for s, (found, _) in calls.items() if found]
+    parts = ["<h2 id='library-calls'>Library calls to look at</h2>",
+             f"<p>Uses of library functions that do what the homework asks students to write, found in the "
+             f"code without running it: {len(with_calls)} of {len(calls)} submissions. A reason to read the code, "
+             "not a finding: no points were taken for them, and students are not shown this list.</p>"]
+    if with_calls:
+        parts.append("<table><tr><th>student</th><th>library function</th><th>does</th><th>use</th>"
+                     "<th>in</th><th>code</th><th>where</th></tr>")
+        for s in with_calls:
+            for c in calls[s][0]:
+                parts.append(f"<tr><td>{e(s)}</td><td>{e(c.name)}</td><td>{e(c.replaces)}</td><td>{e(c.kind)}</td>"
+                             f"<td>{e(c.function)}</td><td><code>{e(c.code)}</code></td><td>{e(c.where)}</td></tr>")
+        parts.append("</table>")
+    unread = sorted(s for s, (_, notes) in calls.items() if notes)
+    if unread:
+        parts.append(f"<p>Code not read in full (a cell that does not parse, or the submission is not where its "
+                     f"grading.json says): {e(', '.join(unread))}.</p>")
+    return "".join(parts)
