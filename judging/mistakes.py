@@ -28,6 +28,7 @@ __all__ = [
     "essential_mistakes",
     "fundamental_mistakes",
     "mistake",
+    "one_camera_depth",
     "points_behind_cameras",
     "points_xy_swapped",
     "rank2_not_enforced",
@@ -124,6 +125,11 @@ KNOWN_MISTAKES: dict[str, tuple[str, str]] = {
         "wrong camera of the four",
         ("your M2 is another of camera2's four candidates: all four reproject the points equally well, "
          "so the reprojection error cannot tell them apart; look at what else differs between them.")),
+    "depth_one_camera": (
+        "depth tested in one camera only",
+        ("your M2 puts every point in front of one camera and behind the other; on these matches that "
+         "candidate also reprojects best, so the error cannot be what decides: look at which cameras your "
+         "depth test looks at.")),
     "residual_layout": (
         "residuals in another layout",
         ("your residuals hold the right values in another order: compare your layout with the handout's "
@@ -481,6 +487,36 @@ def wrong_camera(M2, M2_true, tol_deg: float = 1.0) -> Mistake | None:
         rot = _rotation_angle_deg(M2[:, :3], R)
         return mistake("wrong_camera", f"your M2 is another candidate: rotation {rot:.0f} deg away, "
                                        f"t at {_angle_deg(M2[:, 3], t):.0f} deg from the true direction")
+    return None
+
+
+def one_camera_depth(M2, M2_true, X, tol_deg: float = 1.0) -> Mistake | None:
+    """Mistake when M2 (3x4) is a camera2 candidate of the true pose that reconstructs every true point
+    X (N, 3) in front of one camera and behind the other (the twisted pair, or its mirror).
+
+    Such a candidate passes a depth test of one camera alone; the other wrong ones put the points
+    behind camera 1 (or both).  The exact projections of X are triangulated with M1 = [I | 0] and
+    M2 in normalised coordinates (noise-free: every linear method gives the same points).
+    """
+    M2, M2_true, X = np.asarray(M2, float), np.asarray(M2_true, float), np.asarray(X, float)
+    if M2.shape != (3, 4) or X.ndim != 2 or X.shape[1:] != (3,) or len(X) == 0 or not np.all(np.isfinite(M2)):
+        return None
+    if wrong_camera(M2, M2_true, tol_deg) is None:
+        return None
+    x1 = X / X[:, 2:]
+    Y = X @ M2_true[:, :3].T + M2_true[:, 3]
+    x2 = Y / Y[:, 2:]
+    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+    A = np.stack([x1[:, :1] * M1[2] - M1[0], x1[:, 1:2] * M1[2] - M1[1],
+                  x2[:, :1] * M2[2] - M2[0], x2[:, 1:2] * M2[2] - M2[1]], axis=1)
+    H = np.linalg.svd(A)[2][:, -1, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = H[:, :3] / H[:, 3:]
+        z1, z2 = depths(M1, w), depths(M2, w)
+    for front, behind, a, b in ((z1, z2, 1, 2), (z2, z1, 2, 1)):
+        if np.all(front > 0) and np.all(behind < 0):
+            return mistake("depth_one_camera", f"your M2 puts all {len(X)} points in front of camera {a} "
+                                               f"and behind camera {b}")
     return None
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mistakes import points_behind_cameras, same_up_to_scale, wrong_camera
+from .mistakes import one_camera_depth, points_behind_cameras, same_up_to_scale, wrong_camera
 from .triangulation import LINEAR_SLACK, reprojection_error
 from .verdict import Malformed, Verdict, fmt, read_array, read_parts
 
@@ -55,11 +55,13 @@ def is_rotation(R, atol: float = 1e-6) -> bool:
                 and np.linalg.det(R) > 0)
 
 
-def right_camera(M2, right) -> Verdict:
+def right_camera(M2, right, X=None) -> Verdict:
     """M2 (3, 4) holds a rotation and is ``right`` (3, 4): R within ROT_TOL_DEG, t's direction within DIR_TOL_DEG.
 
     ``right`` is the candidate nearest the true pose (or the reference's choice when there is no
-    truth).  The scale of t is free.  Names the wrong candidate of the four.
+    truth).  The scale of t is free.  Names the wrong candidate of the four; with the true points
+    X (N, 3) (in ``right``'s scale), a candidate that puts them all in front of one camera and behind
+    the other is named as a depth test of one camera only.
     """
     what = "M2 is the right camera of the four"
     M2 = np.asarray(M2, float)
@@ -67,8 +69,11 @@ def right_camera(M2, right) -> Verdict:
         return Verdict.of(what, False, "M2[:, :3] is not a rotation", "R^T R = I, det R = +1")
     rot, direction = pose_gap(M2, right)
     ok = rot <= ROT_TOL_DEG and direction <= DIR_TOL_DEG
+    named = ()
+    if not ok:
+        named = [(one_camera_depth(M2, right, X) if X is not None else None) or wrong_camera(M2, right)]
     return Verdict.of(what, ok, f"R off by {fmt(rot)} deg, t by {fmt(direction)} deg",
-                      f"<= {ROT_TOL_DEG:g} and {DIR_TOL_DEG:g} deg", [wrong_camera(M2, right)] if not ok else ())
+                      f"<= {ROT_TOL_DEG:g} and {DIR_TOL_DEG:g} deg", named)
 
 
 def outputs(M2, C2, w, K1, K2, pts1, pts2, linear_err: float) -> Verdict:

@@ -71,6 +71,17 @@ def _findM2_wrong_camera(F, pts1, pts2, K1, K2):
     return M2, K2 @ M2, w
 
 
+def _findM2_camera1_depth_only(F, pts1, pts2, K1, K2):
+    # Keeps the candidates with every point in front of camera 1 (not camera 2), then the smallest error.
+    cands = camera2(ref.essentialMatrix(F, K1, K2))
+    best = None
+    for i in range(4):
+        w, err = ref.triangulate(K1 @ np.eye(3, 4), pts1, K2 @ cands[:, :, i], pts2)
+        if np.all(w[:, 2] > 0) and (best is None or err < best[0]):
+            best = (err, cands[:, :, i], K2 @ cands[:, :, i], w)
+    return best[1:]
+
+
 def _residual_x_packing(K1, M1, p1, K2, p2, x):
     n = len(p1)
     w = np.asarray(x[:3 * n]).reshape(3, n).T   # x, y, z of all points read as three blocks
@@ -119,6 +130,7 @@ CASES = {
     "points_behind": [("mirrored points", "triangulate",
                        lambda: cell(variants.TRIANGULATE_POINTS_MIRRORED, "triangulate"))],
     "wrong_camera": [("another candidate", "findM2", lambda: _findM2_wrong_camera)],
+    "depth_one_camera": [("camera 1 only", "findM2", lambda: _findM2_camera1_depth_only)],
     "residual_layout": [("interleaved", "rodriguesResidual",
                          lambda: cell(variants.WRAP_RESIDUAL_INTERLEAVED, "rodriguesResidual",
                                       rodriguesResidual=ref.rodriguesResidual))],

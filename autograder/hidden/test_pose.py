@@ -2,8 +2,10 @@
 
 E fixes camera 2 up to the four candidates of ``camera2`` and the scale of t, so M2 is compared
 with the right candidate by rotation angle and direction of t only.  Inputs: an exact scene with
-K1 != K2 and its true F, and hidden scenes with the F the reference estimates from their noisy
-matches.  C2 must be K2 M2, and w the points triangulated with it.
+K1 != K2 and its true F, hidden scenes with the F the reference estimates from their noisy
+matches, and the twisted-pair case of the draw (matches near the epipoles on which a depth test
+of camera 1 only picks the twisted pair; the camera only is judged there).  C2 must be K2 M2,
+and w the points triangulated with it.
 
 Another year's ``findM2(F, pts1, pts2, intrinsics, filename=...)`` (2022-2024: intrinsics a dict
 {'K1', 'K2'}) is recognised by its parameters and called that way; the feedback says how.
@@ -63,13 +65,15 @@ def findM2_verdicts(student, pose, signatures) -> list:
         if np.all(np.isfinite(M2)):
             with np.errstate(all="ignore"):
                 linear_err = triangulate(case.K1 @ M1, case.pts1, case.K2 @ M2, case.pts2)[1]
-        out.append((jp.right_camera(M2, case.right),
-                    jp.outputs(M2, C2, w, case.K1, case.K2, case.pts1, case.pts2, linear_err)))
+        out.append((jp.right_camera(M2, case.right, case.X),
+                    jp.outputs(M2, C2, w, case.K1, case.K2, case.pts1, case.pts2, linear_err)
+                    if case.judge_outputs else None))
     return out
 
 
 def _mistakes(verdicts) -> list:
-    return [m for v in verdicts if not isinstance(v, Malformed) for part in v for m in part.mistakes]
+    return [m for v in verdicts if not isinstance(v, Malformed) for part in v if part is not None
+            for m in part.mistakes]
 
 
 @pytest.mark.points(8, question="Q3.3", name="M2 is the camera that puts the points in front of both cameras")
@@ -84,9 +88,9 @@ def test_M2_is_the_right_camera(pose, findM2_verdicts, signatures, score):
 
 @pytest.mark.points(2, question="Q3.3", name="C2 = K2 M2 and w are the points triangulated with it")
 def test_C2_and_w_go_with_M2(pose, findM2_verdicts, score):
-    lines = [f"{c.label}: {v[1].sentence}" for c, v in zip(pose.cases, findM2_verdicts)
-             if not isinstance(v, Malformed)]
+    judged = [(c, v) for c, v in zip(pose.cases, findM2_verdicts) if c.judge_outputs]
+    lines = [f"{c.label}: {v[1].sentence}" for c, v in judged if not isinstance(v, Malformed)]
     if not lines:
-        lines.append(next((str(v) for v in findM2_verdicts if isinstance(v, Malformed)), "no result to check"))
-    right = sum(not isinstance(v, Malformed) and v[1].passed for v in findM2_verdicts)
-    score.grade(right / len(pose.cases), lines, _mistakes(findM2_verdicts))
+        lines.append(next((str(v) for _, v in judged if isinstance(v, Malformed)), "no result to check"))
+    right = sum(not isinstance(v, Malformed) and v[1].passed for _, v in judged)
+    score.grade(right / len(judged), lines, _mistakes(v for _, v in judged))

@@ -12,9 +12,13 @@ import numpy as np
 
 from core.geometry import fundamental_from_pose
 from judging.pose import pose_gap
+from starter.checks.twisted_pair import twisted_pair_case
 
 from ..scenes import Scenes
 from .base import reference_F
+
+
+TWISTED_LABEL = "matches near the epipoles of a forward move"
 
 
 @dataclass(frozen=True, eq=False)
@@ -26,6 +30,8 @@ class PoseCase:
     K1: np.ndarray
     K2: np.ndarray
     right: np.ndarray    # (3, 4) the right candidate
+    X: np.ndarray | None = None   # (N, 3) the true points in ``right``'s scale, where the mistake needs them
+    judge_outputs: bool = True    # False: the camera only (C2 and w are not judged on this case)
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,7 +48,8 @@ def prepare_pose(scenes: Scenes) -> Pose:
     """An exact scene (K1 != K2) with its true F, and hidden scenes with the reference's F of their
     noisy matches; the right candidate is the one nearest the true pose (the reference's choice on
     the official data, which has no truth).  Where the reference's findM2 would not choose the
-    camera nearest the truth from the reference's F, the scene's true F is given instead."""
+    camera nearest the truth from the reference's F, the scene's true F is given instead.  Last, the
+    twisted-pair case of this draw (``starter.checks.twisted_pair``), judged on the camera only."""
     from solutions import essentialMatrix, findM2
     from starter import camera2
 
@@ -61,4 +68,10 @@ def prepare_pose(scenes: Scenes) -> Pose:
         else:
             right = findM2(F, tc.pts1, tc.pts2, tc.K1, tc.K2)[0]
         cases.append(PoseCase(tc.label, F, tc.pts1, tc.pts2, tc.K1, tc.K2, right))
+    # Matches on which depth tested in camera 1 only picks the twisted pair (starter.checks.twisted_pair,
+    # as the public check but from this draw's seed); its linear triangulations are far from optimal
+    # by construction, so only the camera is judged there.
+    tw = twisted_pair_case(scenes.seed("pose-twisted-pair"))
+    cases.append(PoseCase(TWISTED_LABEL, tw.F, tw.pts1, tw.pts2, tw.pair.K1, tw.pair.K2, tw.pair.M2,
+                          X=tw.pair.X, judge_outputs=False))
     return Pose(tuple(cases))
