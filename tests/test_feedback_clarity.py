@@ -53,3 +53,46 @@ def test_ragged_array_error_gets_a_hint_in_the_self_check():
 
     out = call(ragged_essential, np.eye(3), np.eye(3), np.eye(3))
     assert out.status == "error" and "different lengths or shapes" in out.message, out.message
+
+
+# ------------------------------------------------------------------------------------------------
+# the catalogue names only what its test tells apart (Q6's err)
+
+
+def err_over_every_detection(C1, pts1, C2, pts2, C3, pts3, Thres):
+    """The right P, but err the total over every detection, those at or below Thres too (of the
+    points a reconstruction from all of them gives): a sum of squares, over detections not used."""
+    P, _ = solutions.MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres)
+    P_all, _ = solutions.MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, -1e9)
+    from core.geometry import project
+
+    err = sum(float(np.nansum((np.asarray(p, float)[:, :2] - project(C, P_all)) ** 2)) for C, p in
+              ((C1, pts1), (C2, pts2), (C3, pts3)))
+    return P, err
+
+
+def test_err_over_unused_detections_is_not_called_not_the_sum_of_squares(hidden):
+    tests = _graded(hidden, "multiview", MultiviewReconstruction=err_over_every_detection)
+    t = tests["err is the total squared reprojection error of P over the detections used"]
+    assert t.score < t.max_score, t.feedback       # the check still fails: err is not P's
+    assert "not the sum of squares" not in t.feedback, t.feedback
+
+
+def test_err_hint_does_not_say_two_images_for_three_views(hidden):
+    from corpus import variants
+
+    namespace = {"MultiviewReconstruction": solutions.MultiviewReconstruction}
+    exec(compile(variants.WRAP_MULTIVIEW_MEAN_ERR, "<cell>", "exec"), namespace)  # noqa: S102 - the corpus's cell
+    t = _graded(hidden, "multiview", MultiviewReconstruction=namespace["MultiviewReconstruction"])[
+        "err is the total squared reprojection error of P over the detections used"]
+    assert "Likely mistake: error not the sum of squares" in t.feedback, t.feedback   # a mean: told apart
+    assert "both images" not in t.feedback and "image 1 only" not in t.feedback, t.feedback
+
+
+def test_q6_err_variants_about_one_image_are_not_tried():
+    from judging.mistakes import error_not_sum_of_squares
+
+    r = np.random.default_rng(0).normal(size=(9, 2))
+    # With the observations of three views in one set, err = 0 is no "image 2 only" (there is none).
+    assert error_not_sum_of_squares(0.0, r, only_named=True) is None
+    assert "mean squared" in error_not_sum_of_squares(float(np.sum(r ** 2)) / 9, r, only_named=True).evidence
