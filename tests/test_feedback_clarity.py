@@ -96,3 +96,42 @@ def test_q6_err_variants_about_one_image_are_not_tried():
     # With the observations of three views in one set, err = 0 is no "image 2 only" (there is none).
     assert error_not_sum_of_squares(0.0, r, only_named=True) is None
     assert "mean squared" in error_not_sum_of_squares(float(np.sum(r ** 2)) / 9, r, only_named=True).evidence
+
+
+# ------------------------------------------------------------------------------------------------
+# a student's own definition of a given helper
+
+
+def own_rodrigues(r):
+    """A student's rodrigues with a sign slip: the transpose of the rotation."""
+    from starter import rodrigues
+
+    return rodrigues(r).T
+
+
+def test_own_helper_is_noted_in_the_feedback_of_the_question_using_it(hidden):
+    from solutions import bundle
+
+    # The answer key's Q5 functions call the rodrigues of their module: put the student's there, as a
+    # notebook's own definition replaces the imported one.
+    saved = bundle.rodrigues
+    bundle.rodrigues = own_rodrigues
+    try:
+        tests = _graded(hidden, "bundle", rodrigues=own_rodrigues)
+    finally:
+        bundle.rodrigues = saved
+    lost = [t for t in tests.values() if t.score < t.max_score]
+    assert lost, [(t.name, t.feedback) for t in tests.values()]
+    for t in lost:
+        assert "your own rodrigues was used in place of the given one" in t.feedback, t.feedback
+    assert all("your own" not in t.feedback for t in tests.values() if t.score >= t.max_score)
+
+
+def test_submission_notes_a_given_helper_it_defines(tmp_path):
+    from autograder.submission import load_submission
+
+    (tmp_path / "submission.py").write_text("import numpy as np\n\ndef camera2(E):\n    return np.zeros((3, 4, 4))\n\n"
+                                            "def eightpoint(pts1, pts2, M):\n    return np.eye(3)\n")
+    sub = load_submission(tmp_path)
+    assert set(sub.own_helpers()) == {"camera2"}
+    assert any("your own camera2" in str(n) and "submission.py" in str(n) for n in sub.notes()), sub.notes()
