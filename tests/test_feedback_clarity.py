@@ -135,3 +135,44 @@ def test_submission_notes_a_given_helper_it_defines(tmp_path):
     sub = load_submission(tmp_path)
     assert set(sub.own_helpers()) == {"camera2"}
     assert any("your own camera2" in str(n) and "submission.py" in str(n) for n in sub.notes()), sub.notes()
+
+
+# ------------------------------------------------------------------------------------------------
+# a failed check says "failed" in words, and which part failed when its figure meets its goal
+
+
+def test_bundle_result_that_lost_its_shape_says_which_part_failed(hidden):
+    from judging import bundle as jb
+
+    pr = hidden.prepared["bundle"].problems[0]
+    # The points given back in reverse order: another shape; a known optimum so large that the
+    # error alone meets the goal leaves the shape as the part that fails.
+    w = pr.w_init[::-1].copy()
+    args = (pr.K1, pr.K2, pr.p1, pr.p2, pr.M2_init, pr.w_init)
+    v = jb.result(pr.M2_init, w, *args, optimum=1e12)
+    assert not v.passed
+    assert jb.total_error(pr.K1, pr.K2, pr.p1, pr.p2, pr.M2_init, w) <= jb.result_goal(1e12)   # the figure meets it
+    assert "failed (the error meets its goal, but the reconstruction lost its shape)" in v.sentence, v.sentence
+
+
+def test_every_failed_hidden_line_says_failed(hidden):
+    def e_without_K(F, K1, K2):
+        return K2.T @ F          # a K missing in E: every input fails
+
+    t = _graded(hidden, "essential", essentialMatrix=e_without_K)["E = K2^T F K1 on hidden F, K1, K2"]
+    judged = [line for line in t.feedback.split("  \n") if line.startswith("input ")]
+    assert judged and all(": failed: " in line for line in judged), t.feedback
+
+
+def test_failed_self_check_item_says_failed_beside_its_figure():
+    from starter.checks.report import CheckReport
+    from judging.verdict import Verdict
+
+    report = CheckReport("f")
+    report.judged(Verdict.of("error low", False, "1.81e3 px^2", "<= 2.17e3 px^2", because="the shape was lost"))
+    report.judged(Verdict.of("rank 2", True, "s3/s2 = 1e-17", "<= 1e-6"))
+    lines = report.text().splitlines()
+    failed = next(line for line in lines if "error low" in line)
+    assert "failed (the shape was lost): 1.81e3 px^2" in failed, failed
+    assert "failed" not in next(line for line in lines if "rank 2" in line)
+    assert "failed (the shape was lost)" in report._repr_html_()
