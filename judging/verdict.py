@@ -17,7 +17,7 @@ from core.text import fmt  # noqa: F401 - judging's figures are the kit's (re-ex
 
 from .mistakes import Mistake
 
-__all__ = ["FAILED", "Malformed", "Verdict", "figure_text", "fmt", "log_score", "read_array", "read_number", "read_parts", "share_score"]
+__all__ = ["FAILED", "Malformed", "Verdict", "figure_text", "fmt", "log_score", "read_array", "read_number", "read_parts", "same_error", "share_score"]
 
 
 FAILED = "failed"
@@ -36,6 +36,11 @@ def figure_text(passed: bool, measured: str, goal: str = "", because: str = "") 
         return text
     head = f"{FAILED} ({because})" if because else FAILED
     return f"{head}: {text}" if text else head
+
+
+def same_error(count: int) -> str:
+    """'(the same in 12 calls)': how often one error was seen, for the one line that says it."""
+    return f"(the same in {count} calls)"
 
 
 class Malformed(ValueError):

@@ -176,3 +176,28 @@ def test_failed_self_check_item_says_failed_beside_its_figure():
     assert "failed (the shape was lost): 1.81e3 px^2" in failed, failed
     assert "failed" not in next(line for line in lines if "rank 2" in line)
     assert "failed (the shape was lost)" in report._repr_html_()
+
+
+# ------------------------------------------------------------------------------------------------
+# a repeated error is said once, with a count
+
+
+def test_the_same_error_on_every_input_is_one_line_with_a_count(hidden):
+    def raises(pts1, pts2, M):
+        raise ValueError("singular matrix")
+
+    t = _graded(hidden, "fundamental", eightpoint=raises)["noise-free matches give an exact F"]
+    lines = [line for line in t.feedback.split("  \n") if "raised ValueError" in line]
+    assert len(lines) == 1, t.feedback
+    count = int(lines[0].split("(the same in ")[1].split(" calls)")[0])
+    assert count == 2 * len(hidden.prepared["fundamental"].exact), lines[0]   # each scene, as given and refineF off
+
+
+def test_the_same_error_in_the_self_check_is_one_line_with_a_count():
+    from starter.checks.report import CheckReport
+
+    report = CheckReport("f")
+    for k in range(5):
+        report.add(f"runs on step {k}", False, "ValueError: singular matrix (in f, cell 3, line 2)")
+    text = report.text()
+    assert text.count("singular matrix") == 1 and "(the same in 5 calls)" in text, text

@@ -16,7 +16,7 @@ from typing import Any
 
 from judging.hints import numpy2_hint
 from judging.mistakes import Mistake
-from judging.verdict import Verdict, figure_text
+from judging.verdict import Verdict, figure_text, same_error
 
 __all__ = ["DISCLAIMER", "NOT_IMPLEMENTED", "CheckItem", "CheckReport", "Outcome", "call", "student_frame"]
 
@@ -122,7 +122,7 @@ class CheckReport:
         else:
             head = f"check {self.title}: {n_ok}/{n_ran} passed" + ("" if self.passed else "  <- see the crosses")
         lines = [head]
-        for item in self.items:
+        for item in _merged(self.items):
             lines.extend(item.lines())
         lines.extend(f"  note: {n}" for n in self.notes)
         lines.append(DISCLAIMER)
@@ -162,6 +162,29 @@ class CheckReport:
         head = html.escape(self.text().splitlines()[0])
         return (f"<div><b>{head}</b><table><tr><th></th><th>check</th><th>measured</th><th>goal</th></tr>"
                 f"{''.join(rows)}</table>{notes}<div><i>{html.escape(DISCLAIMER)}</i></div></div>")
+
+
+_RUNS_ON = "runs on "
+
+
+def _merged(items: list[CheckItem]) -> list[CheckItem]:
+    """The items, failed calls that raised the same error ("runs on X" items with the same message)
+    said once with a count: a function failing on every input fails the same way on each."""
+    groups: dict[str, list[CheckItem]] = {}
+    for item in items:
+        if item.passed is False and item.name.startswith(_RUNS_ON) and item.value:
+            groups.setdefault(item.value, []).append(item)
+    out, done = [], set()
+    for item in items:
+        group = groups.get(item.value) if item.passed is False and item.name.startswith(_RUNS_ON) else None
+        if not group or len(group) == 1:
+            out.append(item)
+        elif item.value not in done:
+            done.add(item.value)
+            wheres = [i.name[len(_RUNS_ON):] for i in group]
+            name = _RUNS_ON + (", ".join(wheres[:-1]) + f" and {wheres[-1]}" if len(wheres) <= 3 else f"{len(wheres)} inputs")
+            out.append(CheckItem(name, False, f"{item.value} {same_error(len(group))}", item.goal, item.mistakes))
+    return out
 
 
 def _cell_number() -> int | None:
