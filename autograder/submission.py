@@ -51,7 +51,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
-from core.manifest import NOTEBOOKS, QUESTIONS, functions_of_notebook
+from core.manifest import GIVEN_HELPERS, NOTEBOOKS, QUESTIONS, functions_of_notebook
 
 from .submission_layout import (
     GIVEN_HELPER_MODULES,
@@ -85,6 +85,7 @@ __all__ = [
     "Submission",
     "SubmissionError",
     "load_submission",
+    "own_helper_note",
     "parse_cells",
     "parse_notebook",
     "parse_python",
@@ -149,7 +150,8 @@ class Note:
     "given_helper" (``name``: the module, ``file``: a file importing it; the kit's helpers are
     given), "module_name" (``name`` claimed by several files; ``file`` the one importable by it),
     "other_year" (``name``: a helper the kit gives, defined by the student with an earlier year's
-    signature, ``detail``; ``file``: where).
+    signature, ``detail``; ``file``: where), "own_helper" (``name``: a helper the kit gives
+    (``core.manifest.GIVEN_HELPERS``) that the student defines, ``detail``: where; it is what runs).
     file: the submission's file concerned (None for "no_file" and "borrowed").
     """
 
@@ -190,6 +192,8 @@ class Note:
             return (f"{self.file}: your own {self.name}{self.detail} was recognised as another course year's "
                     f"signature (no eightpoint argument). This homework gives {self.name} (starter) and does not "
                     "grade it; the grader never calls yours.")
+        if self.kind == "own_helper":
+            return own_helper_note(self.name, self.detail)
         if self.kind == "module_name":
             return f"Several files are named {self.name}; import {self.name} gives {self.file} ({self.detail})."
         return f"{self.file}: {self.detail}"
@@ -349,7 +353,29 @@ class Submission:
                       and self.files.get(found.filename, nb).stem != stem):
                     # Its notebook is there, yet the function comes from a file of another question.
                     notes.append(Note("borrowed", stem=stem, name=f, detail=found.origin))
+        # A given helper the student wrote is noted once (an earlier year's ransacF has its own note).
+        other_year = {n.name for n in self.layout_notes if n.kind == "other_year"}
+        notes += [Note("own_helper", name=name, detail=origin) for name, origin in self.own_helpers().items()
+                  if name not in other_year]
         return notes + list(self.layout_notes) + list(self.ignored)
+
+    def own_helpers(self) -> dict[str, str]:
+        """Each helper the kit gives (``core.manifest.GIVEN_HELPERS``) that a file of the submission
+        defines itself -> where (the last file read that defines it): that definition, not the
+        kit's, is what the student's code calls."""
+        found: dict[str, str] = {}
+        for pf in self.files.values():
+            for name, origin in pf.functions.items():
+                if name in GIVEN_HELPERS:
+                    found[name] = origin
+        return {name: found[name] for name in GIVEN_HELPERS if name in found}
+
+
+def own_helper_note(name: str, origin: str = "") -> str:
+    """The sentence for a student's own definition of the kit's given helper ``name``."""
+    where = f" ({origin})" if origin else ""
+    return (f"your own {name}{where} was used in place of the given one: the checks ran your code with it, "
+            f"so a mistake in it shows there.")
 
 
 def _homework_order(name: str) -> tuple:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Question", "QUESTIONS", "NOTEBOOKS", "question", "functions_of_notebook", "QUESTION_HEADING"]
+__all__ = ["GIVEN_HELPERS", "Question", "QUESTIONS", "NOTEBOOKS", "question", "functions_of_notebook", "QUESTION_HEADING"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +47,17 @@ QUESTIONS: tuple[Question, ...] = (
 )
 
 NOTEBOOKS: tuple[str, ...] = tuple(dict.fromkeys(q.notebook for q in QUESTIONS))
+
+# The helpers the kit gives (starter, the course's helper.py) that a question's functions call, by
+# the questions that use them.  A student who defines one of these names replaces the given one in
+# what is graded; the feedback of these questions says so (autograder.hidden.plugin).
+GIVEN_HELPERS: dict[str, tuple[str, ...]] = {
+    "refineF": ("Q2",),
+    "camera2": ("Q3.3",),
+    "ransacF": ("Q5",),
+    "rodrigues": ("Q5",),
+    "invRodrigues": ("Q5",),
+}
 
 # A markdown cell whose first line matches this starts a question (the PDF starts a page there).
 QUESTION_HEADING = r"^#{1,3}\s*(Q\d+(?:\.\d+)?)\b"

@@ -144,8 +144,10 @@ def result(M2, w, K1, K2, p1, p2, M2_init, w_init, optimum: float | None) -> Ver
         # t measured in units of the points' size, so that a scene shrunk as a whole (a valid
         # gauge) is no collapse; only t shrinking against the points is.
         found = ba_mistakes(start, err, M2_init[:, 3] / _size(w_init), M2[:, 3] / _size(w))
+    # The error alone may meet its goal while the shape was lost: the line must not read as a pass.
+    because = "the error meets its goal, but the reconstruction lost its shape" if err <= goal and not kept else ""
     return Verdict(what, ok, fraction, f"reprojection error {fmt(err)} px^2 (start {fmt(start)})",
-                   f"<= {fmt(goal)} px^2", tuple(lines), tuple(found))
+                   f"<= {fmt(goal)} px^2", tuple(lines), tuple(found), because)
 
 
 def rotation(M2) -> Verdict:

@@ -5,13 +5,18 @@ aliases np.float/np.int/np.bool/np.object/... went in NumPy 1.24, the aliases an
 the main namespace in NumPy 2.0) crashes with ``AttributeError: module 'numpy' has no attribute
 'X'``.  The kit does not grade such code under NumPy 1: it runs under the NumPy installed with the
 kit, so the call fails and scores nothing; the hint tells the student which name to replace.
+
+Since NumPy 1.24, ``np.array`` of a ragged list (arrays or rows of different lengths) raises
+``ValueError: setting an array element with a sequence. The requested array has an inhomogeneous
+shape after N dimensions...`` instead of making an object array; the message does not say what to
+look for, so ``numpy2_hint`` gives that error a hint too.
 """
 
 from __future__ import annotations
 
 import re
 
-__all__ = ["NUMPY_REMOVED", "numpy2_hint"]
+__all__ = ["NUMPY_REMOVED", "RAGGED_HINT", "numpy2_hint"]
 
 # removed name -> its replacement (NumPy 1.24 expired aliases and NumPy 2.0's main-namespace removals)
 NUMPY_REMOVED: dict[str, str] = {
@@ -43,8 +48,17 @@ _PATTERN = re.compile(r"""module ['"]numpy['"] has no attribute ['"]([A-Za-z_][A
                       r"""|`np\.([A-Za-z_][A-Za-z0-9_]*)` was (?:removed|a deprecated alias)""")
 
 
+# NumPy's wording since 1.24 (the "inhomogeneous shape" part) and the older first sentence alone,
+# which NumPy 1 gave for the same ragged list when a dtype was asked for.
+_RAGGED = re.compile(r"inhomogeneous shape after \d+ dimension|setting an array element with a sequence")
+RAGGED_HINT = ("This usually means a list of arrays (or rows) of different lengths or shapes was given to "
+               "np.array (or np.vstack, np.stack...), e.g. rows of different length stacked into one array, or "
+               "a number mixed with an array: check the shapes of what you put in that list.")
+
+
 def numpy2_hint(error_text: str) -> str | None:
-    """One feedback line for an error caused by a name NumPy removed, else None.
+    """One feedback line for an error caused by a name NumPy removed, or by a ragged list given to
+    np.array (:data:`RAGGED_HINT`), else None.
 
     error_text : the error's text (``str(exc)``, or "AttributeError: ..." as feedback shows it).
     Returns e.g. "np.Inf is gone from NumPy (removed in 1.24 or 2.0): use np.inf instead. The kit
@@ -53,6 +67,8 @@ def numpy2_hint(error_text: str) -> str | None:
     """
     if not isinstance(error_text, str):
         return None
+    if _RAGGED.search(error_text):
+        return RAGGED_HINT
     m = _PATTERN.search(error_text)
     if m is None:
         return None

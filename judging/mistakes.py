@@ -115,8 +115,9 @@ KNOWN_MISTAKES: dict[str, tuple[str, str]] = {
          "of w.")),
     "error_not_sum_of_squares": (
         "error not the sum of squares",
-        ("err is not the handout's total (squared distances in pixels^2, both images, summed over the "
-         "points): compare your formula with the handout's.")),
+        # Q3.2 and Q5 have two images, Q6 three views: the hint holds for any number of them.
+        ("err is not the handout's total (squared distances in pixels^2, summed over every point in every "
+         "image it is used in): compare your formula with the handout's.")),
     "points_behind": (
         "points behind a camera",
         ("most of your points have a negative depth in camera 1 or camera 2 (the third coordinate of "
@@ -342,14 +343,19 @@ def essential_mistakes(E, F, K1, K2, rtol: float = 1e-6) -> list[Mistake]:
 
 # ----------------------------------------------------------------------------- Q3.2: err
 
-def error_not_sum_of_squares(err, res1, res2, rtol: float = 1e-4) -> Mistake | None:
+def error_not_sum_of_squares(err, res1, res2=None, rtol: float = 1e-4, *, only_named: bool = False) -> Mistake | None:
     """Mistake when ``err`` is not the sum of squared reprojection errors of both images.
 
     Parameters
     ----------
     err : the error the student reported (a number).
     res1, res2 : (N, 2) reprojection residuals x - proj(C, w) in image 1 and image 2, computed
-        from the student's own points w.
+        from the student's own points w.  res2 None: ``res1`` (K, 2) holds every observation
+        used, of any number of views (Q6), so no variant about one image or point pairs is tried.
+    only_named : return None unless err is one of the known variants (a mean, a root...): where
+        the caller cannot know which observations the student meant to use (Q6's detections), an
+        err that matches nothing may be a right sum over other observations, and naming it "not the
+        sum of squares" would mislead.
 
     The evidence names the quantity err matches (a mean, a root, one image only...) when one does.
     """
@@ -358,26 +364,32 @@ def error_not_sum_of_squares(err, res1, res2, rtol: float = 1e-4) -> Mistake | N
     except (TypeError, ValueError):
         return mistake("error_not_sum_of_squares", f"err should be one number, got {type(err).__name__}")
     d1 = np.sum(np.asarray(res1, float) ** 2, axis=1)
-    d2 = np.sum(np.asarray(res2, float) ** 2, axis=1)
+    d2 = np.sum(np.asarray(res2, float) ** 2, axis=1) if res2 is not None else np.zeros(0)
     d = np.concatenate([d1, d2])
     total = float(d.sum())
     if np.isclose(e, total, rtol=rtol, atol=1e-9):
         return None
     n = len(d1)
     variants = {
-         "the mean squared distance over observations": total / max(len(d), 1),
-         "the mean over points of both squared distances": total / max(n, 1),
-         "the square root of the sum of squares": np.sqrt(total),
-         "the sum of distances (not squared)": float(np.sqrt(d).sum()),
+        "the mean squared distance over observations": total / max(len(d), 1),
+        "the square root of the sum of squares": np.sqrt(total),
+        "the sum of distances (not squared)": float(np.sqrt(d).sum()),
         "the mean distance": float(np.sqrt(d).mean()) if len(d) else 0.0,
         "the root mean square distance": float(np.sqrt(d.mean())) if len(d) else 0.0,
         "half the sum of squares (scipy's cost)": total / 2,
-        "the sum of squares of image 1 only": float(d1.sum()),
-        "the sum of squares of image 2 only": float(d2.sum()),
     }
+    if res2 is not None:
+        # Only two views observed point by point tell a mean over points, or one image, apart.
+        variants.update({
+            "the mean over points of both squared distances": total / max(n, 1),
+            "the sum of squares of image 1 only": float(d1.sum()),
+            "the sum of squares of image 2 only": float(d2.sum()),
+        })
     for what, value in variants.items():
         if np.isclose(e, value, rtol=rtol, atol=1e-9):
             return mistake("error_not_sum_of_squares", f"err = {e:.6g} is {what}; the sum of squares is {total:.6g}")
+    if only_named:
+        return None
     return mistake("error_not_sum_of_squares", f"err = {e:.6g}, but your points give a sum of squares of {total:.6g}")
 
 

@@ -68,7 +68,9 @@ def err_bounds(P, Cs, pts, Thres) -> tuple[float, float]:
 def err_reported(err, P, Cs, pts, Thres) -> Verdict:
     """err is the total squared reprojection error of the returned P (N, 3) over the detections used
     (within :func:`err_bounds`, relative ERR_RTOL plus 1e-6 px^2 a keypoint); names
-    error_not_sum_of_squares (against the detections above Thres)."""
+    error_not_sum_of_squares only when err is a known variant (a mean, a root...) of the sum over
+    the detections above Thres: an err that matches none may count other detections (below Thres,
+    or of keypoints P leaves out), which this test cannot tell from a wrong formula."""
     what = "err is the total squared reprojection error of P over the detections used"
     if err is None:
         return Verdict.of(what, False, "MultiviewReconstruction returned P alone", "(P, err)")
@@ -86,7 +88,7 @@ def err_reported(err, P, Cs, pts, Thres) -> Verdict:
     if not ok:
         confident, finite, _, r = _squared(P, Cs, pts, Thres)
         used = confident & finite[:, None] & (confident.sum(axis=1) >= 2)[:, None]
-        found.append(error_not_sum_of_squares(e, r[used], np.zeros((0, 2)), rtol=ERR_RTOL))
+        found.append(error_not_sum_of_squares(e, r[used], rtol=ERR_RTOL, only_named=True))
     return Verdict.of(what, ok, f"err = {fmt(e)} px^2", f"{goal} px^2 from your P", found)
 
 

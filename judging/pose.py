@@ -100,4 +100,4 @@ def outputs(M2, C2, w, K1, K2, pts1, pts2, linear_err: float) -> Verdict:
     ok = err <= goal
     behind = points_behind_cameras(w, _M1, M2) if np.all(np.isfinite(w)) else None
     return Verdict.of(what, ok and behind is None, f"reprojection error of w {fmt(err)} px^2", f"<= {fmt(goal)} px^2",
-                      [behind])
+                      [behind], because="the error meets its goal, but most points are behind a camera" if ok else "")

@@ -17,7 +17,30 @@ from core.text import fmt  # noqa: F401 - judging's figures are the kit's (re-ex
 
 from .mistakes import Mistake
 
-__all__ = ["Malformed", "Verdict", "fmt", "log_score", "read_array", "read_number", "read_parts", "share_score"]
+__all__ = ["FAILED", "Malformed", "Verdict", "figure_text", "fmt", "log_score", "read_array", "read_number", "read_parts", "same_error", "share_score"]
+
+
+FAILED = "failed"
+
+
+def figure_text(passed: bool, measured: str, goal: str = "", because: str = "") -> str:
+    """'<measured> (goal <goal>)', said as failed in words when not ``passed``: the one home of how a
+    figure and its goal are shown, in the hidden feedback and the self-checks alike.
+
+    A failed figure reads "failed: 1.81e3 px^2 (goal <= 2.17e3 px^2)"; ``because`` names the part
+    that failed when the figure shown may meet its goal (the check failed on something else):
+    "failed (the reconstruction lost its shape): 1.81e3 px^2 (goal <= 2.17e3 px^2)".
+    """
+    text = f"{measured} (goal {goal})" if measured and goal else (measured or (f"goal {goal}" if goal else ""))
+    if passed:
+        return text
+    head = f"{FAILED} ({because})" if because else FAILED
+    return f"{head}: {text}" if text else head
+
+
+def same_error(count: int) -> str:
+    """'(the same in 12 calls)': how often one error was seen, for the one line that says it."""
+    return f"(the same in {count} calls)"
 
 
 class Malformed(ValueError):
@@ -35,6 +58,8 @@ class Verdict:
     goal : what it was compared with ("<= 0.064 px"), "" when the rule has no figure.
     lines : further sentences for the feedback (never a hidden input's values).
     mistakes : catalogue mistakes recognised; only ever given when not passed.
+    because : when not passed although ``measured`` may meet ``goal``, the part that failed
+        ("the reconstruction lost its shape"), so that the figure never reads as a pass.
     """
 
     what: str
@@ -44,6 +69,7 @@ class Verdict:
     goal: str = ""
     lines: tuple[str, ...] = ()
     mistakes: tuple[Mistake, ...] = ()
+    because: str = ""
 
     def __post_init__(self):
         f = float(self.fraction)
@@ -59,10 +85,10 @@ class Verdict:
 
     @classmethod
     def of(cls, what: str, passed: bool, measured: str = "", goal: str = "", mistakes=(), lines=(),
-           fraction: float | None = None) -> Verdict:
+           fraction: float | None = None, because: str = "") -> Verdict:
         """A verdict whose fraction is 1 or 0 unless given."""
         return cls(what, bool(passed), float(bool(passed)) if fraction is None else fraction, measured, goal,
-                   tuple(lines), tuple(mistakes))
+                   tuple(lines), tuple(mistakes), "" if passed else str(because))
 
     @classmethod
     def failed(cls, what: str, reason: str) -> Verdict:
@@ -70,10 +96,15 @@ class Verdict:
         return cls(what, False, 0.0, str(reason))
 
     @property
+    def figure(self) -> str:
+        """'<measured> (goal <goal>)', with "failed" (and the part that failed) when not passed."""
+        return figure_text(self.passed, self.measured, self.goal, self.because)
+
+    @property
     def sentence(self) -> str:
-        """'<what>: <measured> (goal <goal>)' for a feedback line."""
-        text = f"{self.what}: {self.measured}" if self.measured else self.what
-        return text + (f" (goal {self.goal})" if self.goal else "")
+        """'<what>: <figure>' for a feedback line (see :attr:`figure`)."""
+        figure = self.figure
+        return f"{self.what}: {figure}" if figure else self.what
 
     @property
     def codes(self) -> tuple[str, ...]:

@@ -12,7 +12,7 @@ import re
 from collections.abc import Sequence
 
 from judging.hints import numpy2_hint
-from judging.verdict import Malformed
+from judging.verdict import Malformed, same_error
 
 __all__ = ["PARAMETERS", "called_as", "collapse", "exception_sentence", "failure", "kind", "mistake_note", "notes",
            "read_returned", "returned", "tidy", "value_of"]
@@ -158,21 +158,43 @@ def value_of(function: str, outcome):
     return outcome.value
 
 
+# A labelled line of a failed call: "<label>: <function> raised <Type: message>[; called as ...]".
+_RAISED = re.compile(r"^(?P<error>[A-Za-z_]\w* raised .*?)(?P<call>; called as .*)?$")
+_LABEL_LIMIT = 100   # labels such as "noise-free matches of hidden scene 2, enlarged, with refineF switched off"
+
+
 def collapse(lines: Sequence[str]) -> list[str]:
-    """Lines "<label>: <text>" with the same text merged into one ("a, b and c: <text>").
+    """Lines "<label>: <text>" with the same text merged into one ("a, b and c: <text>"); lines of
+    calls that raised the same error (whatever the call's argument kinds) merged into one with a
+    count ("4 inputs: f raised ValueError: ... (the same in 4 calls); called as f(...)").
 
     A failing function usually fails the same way on every input; one line says it once.
     """
     merged: dict[str, list[str]] = {}
+    calls: dict[str, list[str]] = {}
     for line in lines:
         label, sep, rest = line.partition(": ")
-        if sep and len(label) <= 40:
+        m = _RAISED.match(rest) if sep and len(label) <= _LABEL_LIMIT and " raised " not in label else None
+        if m is not None:
+            key = m.group("error")
+            merged.setdefault(key, []).append(label)
+            calls.setdefault(key, []).append(m.group("call") or "")
+        elif sep and len(label) <= 40:
             merged.setdefault(rest, []).append(label)
         else:
             merged.setdefault(line, [])
     out = []
     for text, labels in merged.items():
-        if len(labels) <= 1:
+        labels = list(dict.fromkeys(labels))
+        if text in calls:
+            seen = [c for c in dict.fromkeys(calls[text]) if c]
+            count = len(calls[text])
+            who = (labels[0] if len(labels) == 1 else f"{', '.join(labels[:-1])} and {labels[-1]}" if len(labels) <= 3
+                   else f"{len(labels)} inputs")
+            text = text + (f" {same_error(count)}" if count > 1 else "")
+            text += ("; called as " + " or as ".join(c.removeprefix("; called as ") for c in seen)) if seen else ""
+            out.append(f"{who}: {text}")
+        elif len(labels) <= 1:
             out.append(f"{labels[0]}: {text}" if labels else text)
         else:
             out.append(f"{', '.join(labels[:-1])} and {labels[-1]}: {text}")

@@ -456,6 +456,7 @@ def collect_result(config):
     by_q: dict[str, list] = {}
     for qid, tests in config._hw4["results"].values():
         by_q.setdefault(qid, []).extend(tests)
+    _note_own_helpers(config, by_q)
     known = {q.id: q for q in QUESTIONS}
     order = [q.id for q in QUESTIONS if q.id in by_q] + [qid for qid in by_q if qid not in known]
     questions = []
@@ -489,6 +490,40 @@ def collect_result(config):
     draw = config._hw4.get("draw")
     return SubmissionResult(tuple(questions), config.getoption("--student-id"), isolation, tuple(notes), None,
                             time.monotonic() - config._hw4["started"], {"draw": draw} if draw else None)
+
+
+def _own_helpers(config) -> dict[str, str]:
+    """The kit's given helpers (``core.manifest.GIVEN_HELPERS``) the student defines -> where."""
+    from core.manifest import GIVEN_HELPERS
+
+    local = _local(config)
+    if local is not None:
+        return {name: "" for name in getattr(local.student, "functions", {}) if name in GIVEN_HELPERS}
+    sub = config._hw4.get("submission")
+    try:
+        if sub is None and config.getoption("--submission"):
+            from autograder.submission import load_submission
+
+            sub = config._hw4["submission"] = load_submission(config.getoption("--submission"))
+    except Exception:  # noqa: BLE001 - an unreadable submission already failed its checks
+        return {}
+    return sub.own_helpers() if sub is not None else {}
+
+
+def _note_own_helpers(config, by_q: dict) -> None:
+    """Every check that lost points in a question using a given helper the student replaced with
+    their own says so: the result may come from their helper, not from the function checked."""
+    from dataclasses import replace
+
+    from autograder.submission import own_helper_note
+    from core.manifest import GIVEN_HELPERS
+
+    own = _own_helpers(config)
+    for qid, tests in by_q.items():
+        lines = [own_helper_note(name, origin) for name, origin in own.items() if qid in GIVEN_HELPERS[name]]
+        if lines:
+            tests[:] = [t if t.score >= t.max_score else replace(t, feedback="  \n".join(filter(None, [
+                t.feedback, *(tidy(line) for line in lines)]))) for t in tests]
 
 
 def _load_notes(load_errors) -> list[str]:

@@ -20,7 +20,7 @@ import pytest
 from autograder.hidden.cases import M1, SECONDS
 from autograder.hidden.feedback import read_returned
 from judging import bundle as jb
-from judging.verdict import Malformed
+from judging.verdict import Malformed, figure_text
 
 _PROBLEMS = 2   # the hidden scenes' first two (config.temples has at least two)
 
@@ -86,8 +86,8 @@ def _lines_or_problem(adjusted, lines) -> list:
 
 @pytest.mark.points(2, question="Q5", name="M2 holds a rotation")
 def test_M2_holds_a_rotation(bundle, adjusted, score):
-    lines = [f"{pr.label}: M2[:, :3] is {'' if a[1].passed else 'not '}a rotation"
-             + ("" if a[1].passed else f" (goal {a[1].goal})")
+    lines = [f"{pr.label}: " + ("M2[:, :3] is a rotation" if a[1].passed else
+                                figure_text(False, "M2[:, :3] is not a rotation", a[1].goal))
              for pr, a in zip(bundle.problems, adjusted) if not isinstance(a, Malformed)]
     ok = all(not isinstance(a, Malformed) and a[1].passed for a in adjusted)
     score.grade(float(ok), _lines_or_problem(adjusted, lines))
@@ -100,7 +100,8 @@ def test_o1_o2_are_the_errors_before_and_after(bundle, adjusted, score):
         if isinstance(a, Malformed):
             continue
         e = a[2]
-        lines.append(f"{pr.label}: {e.measured}; your start and result give {e.goal.split(' from')[0]} px^2")
+        lines.append(f"{pr.label}: " + figure_text(e.passed, f"{e.measured}; your start and result give "
+                                                             f"{e.goal.split(' from')[0]} px^2"))
         mistakes += e.mistakes
     ok = all(not isinstance(a, Malformed) and a[2].passed for a in adjusted)
     score.grade(float(ok), _lines_or_problem(adjusted, lines), mistakes)

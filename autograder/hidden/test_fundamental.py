@@ -33,7 +33,7 @@ import pytest
 from autograder.hidden.cases import SECONDS
 from autograder.hidden.feedback import called_as, read_returned
 from judging import fundamental as jf
-from judging.verdict import Malformed, Verdict
+from judging.verdict import Malformed, Verdict, figure_text
 
 _OFF = "with refineF switched off"
 _OFF_NOTE = ("switched off: refineF skipped its minimisation and returned the closest rank-2 matrix to the F it was "
@@ -129,7 +129,8 @@ def _fit_both(case, on, F_off):
     off = jf.fit(F_off, case.eval1, case.eval2, case.goal, case.M)
     if off.passed:
         return on
-    return Verdict.of(on.what, False, f"{on.measured} as returned, {off.measured} {_OFF}", off.goal, off.mistakes)
+    return Verdict.of(on.what, False, f"{on.measured} as returned, {off.measured} {_OFF}", off.goal, off.mistakes,
+                      because=f"too far {_OFF}")
 
 
 def _fits(p, F, fits, named):
@@ -142,7 +143,7 @@ def _fits(p, F, fits, named):
         mistakes += v.mistakes
         if not v.passed:
             judged_wrong.append(case)
-        lines.append(f"{case.label}: {v.sentence}{'' if v.passed else ': too far'}")
+        lines.append(f"{case.label}: {v.sentence}")
     right = sum(v.passed for v in fits.values())
     return right / len(p.cases), lines + _how_called(judged_wrong), named or mistakes
 
@@ -158,11 +159,12 @@ def _rank(p, F, F_off, fits):
         mistakes += _mistakes(on, off)
         ok = on.passed and _passed(off)
         right += ok and fit.passed
-        text = f"{case.label}: {on.measured}"
+        text = on.measured
         if not _passed(off):
             text += f"; {_OFF}: {off if isinstance(off, Malformed) else off.measured}"
-        if ok and not fit.passed:
-            text += ", but F does not fit the scene"
+        # Rank 2 counts only where F fits: a rank that is right says which part failed instead.
+        text = f"{case.label}: " + figure_text(ok and fit.passed, text, "",
+                                               "F does not fit the scene" if ok and not fit.passed else "")
         if not ok:
             judged_wrong.append(case)
         lines.append(text)
@@ -198,7 +200,10 @@ def _uint16(p, F, F_off, fits):
         usable = fit is not None and not isinstance(Fs[twin], Malformed)
         v = jf.uint16_same(Fs[u16], Fs[twin] if usable else np.zeros((3, 3)))
         verdicts.append(v)
-        lines.append(f"{u16.label}{how}: {v.sentence}")
+        # The same F from uint16 counts only where the float F fits: then that is the part that failed.
+        lines.append(f"{u16.label}{how}: " + (v.sentence if not v.passed or (fit is not None and fit.passed) else
+                                              f"{v.what}: " + figure_text(False, v.measured, v.goal,
+                                                                          "the F of the float points does not fit")))
     fits_too = fit is not None and fit.passed
     ok = len(verdicts) == 2 and all(v.passed for v in verdicts) and fits_too
     if not fits_too:

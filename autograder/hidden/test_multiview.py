@@ -22,7 +22,7 @@ import pytest
 from autograder.hidden.cases import SECONDS
 from autograder.hidden.feedback import called_as, read_returned
 from judging import multiview as jm
-from judging.verdict import Malformed, read_array
+from judging.verdict import Malformed, figure_text, read_array
 
 _PLOT_SHARE = 0.9
 # Plots often show the car with axes swapped or flipped (y up): any signed permutation is fine.
@@ -73,7 +73,8 @@ def _grade_steps(steps, reconstructed, judge, line, score) -> None:
 def test_3D_keypoints_of_a_car_sequence(multiview, reconstructed, score):
     _grade_steps(multiview.sequence, reconstructed,
                  lambda step, P, err: jm.sequence(P, step.P_true, step.judged, step.goal),
-                 lambda step, v: f"{step.label}: {v.measured} m of your keypoints from the true ones (goal {v.goal} m)",
+                 lambda step, v: f"{step.label}: " + figure_text(v.passed, f"{v.measured} m of your keypoints from the "
+                                                                 "true ones", f"{v.goal} m"),
                  score)
 
 
@@ -81,8 +82,9 @@ def test_3D_keypoints_of_a_car_sequence(multiview, reconstructed, score):
 def test_only_detections_above_Thres_are_used(multiview, reconstructed, score):
     _grade_steps(multiview.probes, reconstructed,
                  lambda step, P, err: jm.threshold_probe(P, step.P_true, step.pts[:, :, 2].T, step.Thres, step.goal),
-                 lambda step, v: (f"{step.label} (Thres = {step.Thres}): {v.measured.split(' within')[0]} keypoints "
-                                  "right" + ("" if v.passed else " (goal: all)")),
+                 lambda step, v: (f"{step.label} (Thres = {step.Thres}): "
+                                  + (f"{v.measured.split(' within')[0]} keypoints right" if v.passed else
+                                     figure_text(False, f"{v.measured.split(' within')[0]} keypoints right", "all"))),
                  score)
 
 
@@ -90,7 +92,7 @@ def test_only_detections_above_Thres_are_used(multiview, reconstructed, score):
 def test_err_is_the_reprojection_error_of_P(multiview, reconstructed, score):
     _grade_steps(multiview.sequence, reconstructed,
                  lambda step, P, err: jm.err_reported(err, P, step.C, step.pts, step.Thres),
-                 lambda step, v: f"{step.label}: {v.measured}" + ("" if v.passed else f" (goal {v.goal})"),
+                 lambda step, v: f"{step.label}: " + (v.measured if v.passed else v.figure),
                  score)
 
 
@@ -128,7 +130,8 @@ def test_plot_3d_keypoint_video_draws_a_sequence(student, multiview, score):
     except Malformed as exc:
         score.grade(0.0, [str(exc)])
     shown = drawn_share(drawn, multiview.video)
-    lines = [f"your figure shows {shown:.0%} of the keypoints of the sequence (goal >= {_PLOT_SHARE:.0%})"]
+    lines = [figure_text(shown >= _PLOT_SHARE, f"your figure shows {shown:.0%} of the keypoints of the sequence",
+                         f">= {_PLOT_SHARE:.0%}")]
     if shown < _PLOT_SHARE:
         lines.append(f"{called_as('plot_3d_keypoint_video', None, args)}, its figures (returned or opened with "
                      f"pyplot) drew {len(drawn)} 3D points")

@@ -17,7 +17,7 @@ import pytest
 from autograder.hidden.cases import SECONDS
 from autograder.hidden.feedback import read_returned
 from judging import triangulation as jt
-from judging.verdict import Malformed, Verdict
+from judging.verdict import Malformed, Verdict, figure_text
 
 
 @dataclass(frozen=True)
@@ -90,7 +90,8 @@ def test_err_is_the_total_squared_reprojection_error(triangulated, score):
     for case, t in judged:
         if not t.err.passed:
             mistakes += t.err.mistakes
-            lines.append(f"{case.label}: {t.err.measured}, but your points give {t.err.goal.split(' from')[0]} px^2")
+            lines.append(f"{case.label}: " + figure_text(False, f"{t.err.measured}, but your points give "
+                                                                f"{t.err.goal.split(' from')[0]} px^2"))
     if not judged:
         problem = next((t.problem for t in triangulated.values() if t.problem is not None), None)
         score.grade(0.0, [str(problem) if problem else "no (w, err) to check"])

@@ -16,7 +16,7 @@ from typing import Any
 
 from judging.hints import numpy2_hint
 from judging.mistakes import Mistake
-from judging.verdict import Verdict
+from judging.verdict import Verdict, figure_text, same_error
 
 __all__ = ["DISCLAIMER", "NOT_IMPLEMENTED", "CheckItem", "CheckReport", "Outcome", "call", "student_frame"]
 
@@ -34,6 +34,7 @@ class CheckItem:
     value : the figure of merit measured ("s3/s2 = 2e-16"), or the error message.
     goal : what it is compared with ("< 1e-6"), "" when the item has no figure.
     mistakes : known mistakes recognised when the item failed.
+    because : the part that failed, when ``value`` may meet ``goal`` (a Verdict's ``because``).
     """
 
     name: str
@@ -41,11 +42,20 @@ class CheckItem:
     value: str = ""
     goal: str = ""
     mistakes: tuple[Mistake, ...] = ()
+    because: str = ""
+
+    @property
+    def figure(self) -> str:
+        """The value and goal as shown, "failed" in words when the item failed (the cross alone is
+        easy to miss beside a figure that looks like it meets its goal)."""
+        if self.value == NOT_IMPLEMENTED:
+            return self.value
+        return figure_text(self.passed is not False, self.value, "", self.because)
 
     def lines(self) -> list[str]:
         mark = _SKIP if self.passed is None else (_TICK if self.passed else _CROSS)
         text = f"  {mark} {self.name}"
-        figure = self.value + (f"   (goal {self.goal})" if self.goal else "")
+        figure = self.figure + (f"   (goal {self.goal})" if self.goal else "")
         if figure:
             text = f"{text:<58} {figure}"
         out = [text]
@@ -92,16 +102,16 @@ class CheckReport:
         return list(seen.values())
 
     def add(self, name: str, passed: bool | None, value: str = "", goal: str = "",
-            mistakes=()) -> bool | None:
+            mistakes=(), because: str = "") -> bool | None:
         self.items.append(CheckItem(name, None if passed is None else bool(passed), value, goal,
-                                    tuple(m for m in mistakes if m is not None)))
+                                    tuple(m for m in mistakes if m is not None), because))
         return passed
 
     def judged(self, verdict: Verdict, where: str = "") -> bool:
         """Add the item of one judgment (judging/), ``where`` naming the data in brackets."""
         name = f"{verdict.what} ({where})" if where else verdict.what
         measured = "; ".join([verdict.measured, *verdict.lines]) if verdict.lines else verdict.measured
-        self.add(name, verdict.passed, measured, verdict.goal, verdict.mistakes)
+        self.add(name, verdict.passed, measured, verdict.goal, verdict.mistakes, verdict.because)
         return verdict.passed
 
     def text(self) -> str:
@@ -112,7 +122,7 @@ class CheckReport:
         else:
             head = f"check {self.title}: {n_ok}/{n_ran} passed" + ("" if self.passed else "  <- see the crosses")
         lines = [head]
-        for item in self.items:
+        for item in _merged(self.items):
             lines.extend(item.lines())
         lines.extend(f"  note: {n}" for n in self.notes)
         lines.append(DISCLAIMER)
@@ -146,12 +156,35 @@ class CheckReport:
                            for m in item.mistakes)
             rows.append(f"<tr><td style='color:{colour};font-weight:bold'>{mark}</td>"
                         f"<td style='text-align:left'>{html.escape(item.name)}{hint}</td>"
-                        f"<td style='text-align:left'>{html.escape(item.value)}</td>"
+                        f"<td style='text-align:left'>{html.escape(item.figure)}</td>"
                         f"<td style='text-align:left'>{html.escape(item.goal)}</td></tr>")
         notes = "".join(f"<div>note: {html.escape(n)}</div>" for n in self.notes)
         head = html.escape(self.text().splitlines()[0])
         return (f"<div><b>{head}</b><table><tr><th></th><th>check</th><th>measured</th><th>goal</th></tr>"
                 f"{''.join(rows)}</table>{notes}<div><i>{html.escape(DISCLAIMER)}</i></div></div>")
+
+
+_RUNS_ON = "runs on "
+
+
+def _merged(items: list[CheckItem]) -> list[CheckItem]:
+    """The items, failed calls that raised the same error ("runs on X" items with the same message)
+    said once with a count: a function failing on every input fails the same way on each."""
+    groups: dict[str, list[CheckItem]] = {}
+    for item in items:
+        if item.passed is False and item.name.startswith(_RUNS_ON) and item.value:
+            groups.setdefault(item.value, []).append(item)
+    out, done = [], set()
+    for item in items:
+        group = groups.get(item.value) if item.passed is False and item.name.startswith(_RUNS_ON) else None
+        if not group or len(group) == 1:
+            out.append(item)
+        elif item.value not in done:
+            done.add(item.value)
+            wheres = [i.name[len(_RUNS_ON):] for i in group]
+            name = _RUNS_ON + (", ".join(wheres[:-1]) + f" and {wheres[-1]}" if len(wheres) <= 3 else f"{len(wheres)} inputs")
+            out.append(CheckItem(name, False, f"{item.value} {same_error(len(group))}", item.goal, item.mistakes))
+    return out
 
 
 def _cell_number() -> int | None:
