@@ -175,6 +175,8 @@ def test_correct_matcher_styles_get_full_Q41_and_Q42(hidden, style):
     q = _questions(hidden, epipolarCorrespondence=matcher, compute3D_pts=_compute3D_with(matcher))
     for qid in ("Q4.1", "Q4.2"):
         assert q[qid].score == q[qid].max_score, (qid, [t.feedback for t in q[qid].tests])
+    # judged on the easy points, against the weakest of several styles, and said so
+    assert all("easy points" in t.feedback and "correct matcher styles" in t.feedback for t in q["Q4.1"].tests)
 
 
 @pytest.mark.parametrize("wrong", sorted(WRONG))
@@ -247,6 +249,7 @@ def test_correct_matcher_styles_pass_the_public_self_checks(style):
     for report in (check_epipolarCorrespondence(matcher, verbose=False),
                    check_compute3D_pts(_compute3D_with(matcher), verbose=False)):
         assert "1/1 passed" in report.text(), report.text()
+        assert "easy points" in report.text() or "surface" in report.text()
 
 
 def test_the_public_self_check_passes_images_as_the_notebooks_load_them():
