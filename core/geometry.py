@@ -31,7 +31,7 @@ __all__ = [
     "homogeneous",
     "epipolar_distances",
     "project",
-    "similarity_align",
+    "similarity_align", "similarity_fit",
     "skew",
     "symmetric_epipolar_cost_of",
     "symmetric_epipolar_distances",
@@ -210,25 +210,37 @@ class CameraPair:
         return CameraPair(self.K1, self.K2, M2, np.asarray(self.X, float) / s)
 
 
+def similarity_fit(A, B):
+    """(s, R, t): the similarity (scale s > 0, rotation R (3, 3), shift t (3,)) that minimises
+    sum |s R a + t - b|^2 over the rows of A, B (N, 3) (Umeyama's closed form, no reflection);
+    a point a moves to ``s * R @ a + t``.  None when A or B is not finite, their lengths differ or
+    A has no extent.
+    """
+    A, B = np.asarray(A, float).reshape(-1, 3), np.asarray(B, float).reshape(-1, 3)
+    if len(A) != len(B) or len(A) == 0 or not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        return None
+    ca, cb = A.mean(axis=0), B.mean(axis=0)
+    a, b = A - ca, B - cb
+    var_a = float(np.sum(a ** 2)) / len(A)
+    if not var_a > 0:
+        return None
+    U, S, Vt = np.linalg.svd(b.T @ a / len(A))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt)) or 1.0])
+    R = U @ D @ Vt
+    s = float(np.trace(np.diag(S) @ D)) / var_a
+    return s, R, cb - s * R @ ca
+
+
 def similarity_align(A, B) -> tuple[np.ndarray, float]:
-    """A (N, 3) moved onto B (N, 3) by the similarity (scale s > 0, rotation R, shift t) that
-    minimises sum |s R a + t - b|^2 (Umeyama's closed form); returns (the moved A, its RMS
+    """A (N, 3) moved onto B (N, 3) by :func:`similarity_fit`; returns (the moved A, its RMS
     distance to B).  Compares two reconstructions that are each defined only up to a similarity.
 
     NaN (and an infinite RMS) when A or B is not finite or A has no extent.
     """
     A, B = np.asarray(A, float).reshape(-1, 3), np.asarray(B, float).reshape(-1, 3)
-    bad = (np.full_like(B, np.nan), float("inf"))
-    if len(A) != len(B) or len(A) == 0 or not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
-        return bad
-    ca, cb = A.mean(axis=0), B.mean(axis=0)
-    a, b = A - ca, B - cb
-    var_a = float(np.sum(a ** 2)) / len(A)
-    if not var_a > 0:
-        return bad
-    U, S, Vt = np.linalg.svd(b.T @ a / len(A))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt)) or 1.0])
-    R = U @ D @ Vt
-    s = float(np.trace(np.diag(S) @ D)) / var_a
-    moved = s * a @ R.T + cb
+    fit = similarity_fit(A, B)
+    if fit is None:
+        return np.full_like(B, np.nan), float("inf")
+    s, R, t = fit
+    moved = s * A @ R.T + t
     return moved, float(np.sqrt(np.mean(np.sum((moved - B) ** 2, axis=1))))

@@ -1,25 +1,35 @@
-"""Q4.1 ``epipolarCorrespondence`` and Q4.2 ``compute3D_pts``: matches and 3D points near the truth.
+"""Q4.1 ``epipolarCorrespondence`` and Q4.2 ``compute3D_pts``: matches and 3D structure near the truth.
 
-A match is right within ``tolerance(width)`` pixels of the true match; a 3D point is right when it
-reprojects (core.geometry.project) within that tolerance of the point in image 1 and of its true
-match in image 2.  The goal is a share of the points: 70 % of what a reference matcher reaches on
-the same points (``ref_share``; 1 when there is none), partial credit down to 20 % of it.
+The points judged are the *easy* ones of a scene (the handout: "it should get easy points (such
+as those with distinctive, corner-like windows)"), chosen grader-side where their window is
+distinctive along the true epipolar line.  A match is right within ``tolerance(width)`` pixels of
+the true match.  A 3D point is right when, after the reconstruction is moved onto the true points
+by the similarity that fits it best (its gauge: the cameras may come from the student's own
+findM2, |t| = 1), it lies within ``tol3d`` of its true point on the surface, ``tol3d`` being how
+far a match ``tolerance`` px off along its epipolar line moves the point (:func:`right_structure`).
+
+The goal is a share of the points: 70 % of ``ref_share``, what the weakest of several correct
+matcher styles reaches on those very points (1 when unknown), and never fewer than MIN_RIGHT
+points; partial credit down to 20 % of it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from core.geometry import project
+from core.geometry import project, similarity_fit
 
 from .mistakes import points_behind_cameras, points_xy_swapped
 from .triangulation import LINEAR_SLACK, reprojection_error
 from .verdict import Malformed, Verdict, fmt, read_array, read_number, share_score
 
-__all__ = ["FLOOR", "GOAL", "PTS2_SHARE", "matches", "points3d", "pts2_reported", "read_match", "read_points",
-           "read_points_pts2", "right_2d", "right_3d", "tolerance"]
+__all__ = ["FLOOR", "GOAL", "MIN_RIGHT", "PTS2_SHARE", "matches", "points3d", "pts2_reported", "read_match",
+           "read_points", "read_points_pts2", "right_2d", "right_3d", "right_structure", "tolerance"]
 
 GOAL, FLOOR = 0.7, 0.2
+MIN_RIGHT = 2      # the goal never asks fewer points than this (nor more than there are)
+_SHOWN = 3         # the wrong points whose distances the feedback lists
+_SAMPLES = 60      # triples right_structure fits from
 PTS2_SHARE = 0.9   # share of the points whose w must reproject onto the pts1 and pts2 returned with it
 _M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
 
@@ -36,16 +46,36 @@ def read_match(value) -> np.ndarray:
     return read_array(value, (2,), "(x2, y2)")
 
 
+def _shape(v):
+    try:
+        return np.shape(v)
+    except (TypeError, ValueError):
+        return None
+
+
 def read_points(value, n: int) -> np.ndarray:
-    """w (n, 3) from compute3D_pts's result: w alone, or a tuple starting with w; or Malformed."""
-    if isinstance(value, (tuple, list)) and len(value) in (2, 3):
-        value = value[0]
+    """w (n, 3) from compute3D_pts's result, or Malformed.
+
+    Accepted: w alone; a tuple or list starting with w ((w, pts2), (w, err)); or, as 2022-2024
+    hand-ins return it, a tuple holding w among 3 x 4 matrices ((M2, C2, P), (M2, C2, P, M1, C1)):
+    the one element of shape (n, 3).  A 3 x 4 matrix alone (M2 or C2) is Malformed, saying so.
+    """
+    if isinstance(value, (tuple, list)) and value and not np.isscalar(value[0]):
+        shapes = [_shape(v) for v in value]
+        if shapes[0] != (n, 3) and all(sh is not None and len(sh) == 2 for sh in shapes):
+            found = [v for v, sh in zip(value, shapes) if sh == (n, 3)]
+            if len(found) == 1:
+                return read_array(found[0], (n, 3), "the 3D points")
+        if len(value) in (2, 3) or shapes[0] == (n, 3):
+            value = value[0]
+    if _shape(value) == (3, 4) and n != 3:
+        raise Malformed(f"expected the {n} x 3 points, got a 3 x 4 matrix (a camera such as M2 or C2?)")
     return read_array(value, (n, 3), "the 3D points")
 
 
 def read_points_pts2(value, n: int) -> tuple[np.ndarray, object]:
     """(w (n, 3), pts2 as returned or None) from compute3D_pts's result ((w, pts2), or w alone); or Malformed."""
-    pts2 = value[1] if isinstance(value, (tuple, list)) and len(value) in (2, 3) else None
+    pts2 = value[1] if isinstance(value, (tuple, list)) and len(value) == 2 and _shape(value[1]) == (n, 2) else None
     return read_points(value, n), pts2
 
 
@@ -82,10 +112,29 @@ def pts2_reported(pts2, w, C1, pts1, C2, tol: float, linear_error=None) -> Verdi
                                 f"of pts1 and of your pts2", f">= {PTS2_SHARE:.0%}", [swapped], lines)
 
 
-def _goal(share: float, ref_share: float, tol: float, n_right: int, n: int, what: str, mistakes=()) -> Verdict:
-    goal, floor = GOAL * ref_share, FLOOR * ref_share
-    return Verdict(what, share >= goal, share_score(share, goal, floor), f"{n_right} of {n} within {tol:g} px",
-                   f">= {goal:.0%}", (), tuple(m for m in mistakes if m is not None))
+def goal_share(ref_share: float, n: int) -> float:
+    """The share of n points worth full marks: GOAL * ref_share, at least MIN_RIGHT points (at most all)."""
+    return min(1.0, max(GOAL * ref_share, MIN_RIGHT / max(n, 1)))
+
+
+def _goal(share: float, ref_share: float, within: str, n_right: int, n: int, what: str, mistakes=(),
+          lines=()) -> Verdict:
+    goal = goal_share(ref_share, n)
+    floor = goal * FLOOR / GOAL
+    return Verdict(what, share >= goal, share_score(share, goal, floor), f"{n_right} of {n} {within}",
+                   f">= {goal:.0%}", tuple(lines), tuple(m for m in mistakes if m is not None))
+
+
+def _where(pts1, dist, right, unit: str) -> list[str]:
+    """A line naming how far the first few wrong points are off (pts1 (P, 2) or None, dist (P,))."""
+    wrong = np.flatnonzero(~right)[:_SHOWN]
+    if not len(wrong):
+        return []
+    parts = []
+    for k in wrong:
+        at = "" if pts1 is None else f"({pts1[k][0]:g}, {pts1[k][1]:g}): "
+        parts.append(at + ("no result" if not np.isfinite(dist[k]) else f"{dist[k]:.1f} {unit} off"))
+    return [f"{int((~right).sum())} not right; the first {len(wrong)}: " + "; ".join(parts)]
 
 
 def right_2d(pts2, truth2, tol: float) -> np.ndarray:
@@ -94,14 +143,18 @@ def right_2d(pts2, truth2, tol: float) -> np.ndarray:
     return np.where(np.isfinite(d), d, np.inf) <= tol
 
 
-def matches(pts2, truth2, tol: float, ref_share: float = 1.0) -> Verdict:
-    """pts2 (P, 2), the matches found, within ``tol`` px of truth2 (P, 2) for a share >= GOAL * ref_share."""
-    what = "matches near the true ones"
+def matches(pts2, truth2, tol: float, ref_share: float = 1.0, pts1=None) -> Verdict:
+    """pts2 (P, 2), the matches found of the easy points pts1 (P, 2) (only named in the feedback;
+    None: not named), within ``tol`` px of truth2 (P, 2) for a share >= :func:`goal_share`."""
+    what = "matches of the easy points near the true ones"
     pts2 = np.asarray(pts2, float)
     right = right_2d(pts2, truth2, tol)
     share = float(right.mean()) if len(right) else 0.0
-    swapped = None if share >= GOAL * ref_share else points_xy_swapped(np.nan_to_num(pts2, nan=-1e9), truth2, tol)
-    return _goal(share, ref_share, tol, int(right.sum()), len(right), what, [swapped])
+    swapped = None if share >= goal_share(ref_share, len(right)) else points_xy_swapped(
+        np.nan_to_num(pts2, nan=-1e9), truth2, tol)
+    dist = np.linalg.norm(pts2 - truth2, axis=1)
+    return _goal(share, ref_share, f"within {tol:g} px", int(right.sum()), len(right), what, [swapped],
+                 _where(pts1, np.where(np.isfinite(dist), dist, np.inf), right, "px"))
 
 
 def right_3d(w, C1, C2, pts1, truth2, tol: float) -> np.ndarray:
@@ -112,16 +165,53 @@ def right_3d(w, C1, C2, pts1, truth2, tol: float) -> np.ndarray:
     return (d1 <= tol) & (d2 <= tol)
 
 
-def points3d(w, C1, C2, pts1, truth2, tol: float, ref_share: float = 1.0, M2=None) -> Verdict:
-    """3D points w (P, 3) right (see :func:`right_3d`) for a share >= GOAL * ref_share.
+def right_structure(w, truth3d, tol3d) -> tuple[np.ndarray, np.ndarray]:
+    """((P,) bool, (P,) distances): w (P, 3) near truth3d (P, 3) up to a similarity.
 
-    ``M2`` (3, 4), camera 2's pose when known, lets the catalogue name points behind a camera.
+    w is moved onto truth3d by the similarity (core.geometry.similarity_fit) that puts the most
+    points within tol3d ((P,) or a number, same units as truth3d) of their true point: fits to
+    every finite point and to _SAMPLES triples of them (a fixed numpy Generator, so the verdict is
+    the same every time; wrong matches must not drag the fit), each refitted twice to the points
+    it puts within tolerance.  Distances are those of the best fit (inf for a point that is not
+    finite, or everywhere when nothing fits).
     """
-    what = "3D points near the true ones"
+    w, truth3d = np.asarray(w, float).reshape(-1, 3), np.asarray(truth3d, float).reshape(-1, 3)
+    tol3d = np.broadcast_to(np.asarray(tol3d, float), (len(truth3d),))
+    finite = np.flatnonzero(np.all(np.isfinite(w), axis=1))
+    best = (np.zeros(len(w), bool), np.full(len(w), np.inf))
+    if len(finite) < 3:
+        return best
+    rng = np.random.default_rng(0)
+    starts = [finite] + [rng.choice(finite, 3, replace=False) for _ in range(_SAMPLES)]
+    for use in starts:
+        for _ in range(3):
+            fit = similarity_fit(w[use], truth3d[use]) if len(use) >= 3 else None
+            if fit is None:
+                break
+            s, R, t = fit
+            dist = np.full(len(w), np.inf)
+            dist[finite] = np.linalg.norm(s * w[finite] @ R.T + t - truth3d[finite], axis=1)
+            right = dist <= tol3d
+            if right.sum() > best[0].sum():
+                best = (right, dist)
+            use = np.flatnonzero(right)
+    return best
+
+
+def points3d(w, truth3d, tol3d, ref_share: float = 1.0, pts1=None, M2=None) -> Verdict:
+    """3D points w (P, 3) of the easy points pts1 (P, 2) on the true structure (:func:`right_structure`,
+    truth3d (P, 3), tol3d (P,)) for a share >= :func:`goal_share`.
+
+    ``M2`` (3, 4), camera 2's pose when the points are in camera 1's frame at the scene's scale,
+    lets the catalogue name points behind a camera.
+    """
+    what = "3D points on the temple's surface (up to a similarity)"
     w = np.asarray(w, float)
-    right = right_3d(w, C1, C2, pts1, truth2, tol)
+    right, dist = right_structure(w, truth3d, tol3d)
     share = float(right.mean()) if len(right) else 0.0
     behind = None
-    if M2 is not None and share < GOAL * ref_share and np.all(np.isfinite(w)):
+    if M2 is not None and share < goal_share(ref_share, len(right)) and np.all(np.isfinite(w)):
         behind = points_behind_cameras(w, _M1, M2)
-    return _goal(share, ref_share, tol, int(right.sum()), len(right), what, [behind])
+    tol3d = np.broadcast_to(np.asarray(tol3d, float), (len(right),))
+    return _goal(share, ref_share, "near their true point", int(right.sum()), len(right), what, [behind],
+                 _where(pts1, dist / tol3d, right, "tolerances"))

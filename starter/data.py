@@ -22,7 +22,8 @@ from PIL import Image
 
 from core.paths import data_root
 
-__all__ = ["data_root", "TempleData", "CarFrame", "load_temple", "load_car_frame", "car_times", "load_image"]
+__all__ = ["data_root", "TempleData", "CarFrame", "load_temple", "load_car_frame", "car_times", "load_image",
+           "course_image"]
 
 def _temple_dir(root: Path) -> Path:
     for cand in (root / "temple", root):
@@ -30,6 +31,11 @@ def _temple_dir(root: Path) -> Path:
             return cand
     raise FileNotFoundError(
         f"no temple data under {root}: expected {root}/temple/im1.png (official layout) or {root}/im1.png")
+
+
+def course_image(im) -> np.ndarray:
+    """An 8-bit image (H, W[, C]) as the course's notebooks read its PNG (``plt.imread``): float32 in [0, 1]."""
+    return np.asarray(im, dtype=np.float32) / np.float32(255)
 
 
 def load_image(path: str | os.PathLike) -> np.ndarray:

@@ -1,12 +1,15 @@
 """Q4.1 ``epipolarCorrespondence`` and Q4.2 ``compute3D_pts`` on hidden temple scenes (judging.correspondence).
 
-Q4.1, one test per scene: points of image 1 whose true match is known are matched with the true
-F; the share of matches within a few pixels of the truth is compared with the reference
-matcher's share on the same points.  Full marks at 70 % of the reference's share, nothing at
-20 % of it, linear between (the handout asks for the easy points, not every point).
+Q4.1, one test per scene: the scene's easy points (distinctive windows along the true epipolar
+line, solutions.matching_styles) are matched with the true F; the share of matches within a few
+pixels of the truth is compared with what the weakest of several correct matcher styles (SSD,
+SAD, NCC, Gaussian-weighted; 5 to 101 px; local and whole-line search) reaches on those points.
+Full marks at 70 % of it, nothing at 20 % of it, linear between (the handout asks for the easy
+points, not every point).
 
-Q4.2: the 3D points must reproject within the same few pixels of the point and of its true
-match; the pts2 returned with them must be the matches they were triangulated from.  Graded through the student's ``compute3D_pts(im1, im2, F, x1, y1, C1, C2)`` when it
+Q4.2: the 3D points of the easy points must lie on the temple's structure, up to a similarity
+(judging.correspondence.right_structure); the pts2 returned with them must be the matches they
+were triangulated from.  Graded through the student's ``compute3D_pts(im1, im2, F, x1, y1, C1, C2)`` when it
 accepts the reference signature and through their ``epipolarCorrespondence`` + ``triangulate``
 pipeline otherwise (the matches of Q4.1, not asked for again); the better of the two counts, and
 the feedback says which was used.
@@ -22,6 +25,7 @@ import pytest
 from autograder.hidden.cases import SECONDS, matching_labels
 from autograder.hidden.feedback import called_as, failure, read_returned, returned
 from autograder.hidden.plugin import config_of
+from starter.data import course_image
 from judging import correspondence as jc
 from judging.verdict import Malformed
 
@@ -56,11 +60,6 @@ def _point(value):
     except (TypeError, ValueError):
         return None
     return (float(arr[0]), float(arr[1])) if arr.size == 2 else None
-
-
-def course_image(im: np.ndarray) -> np.ndarray:
-    """An 8-bit image as ``plt.imread`` gives its PNG: float32 in [0, 1]."""
-    return np.asarray(im, dtype=np.float32) / np.float32(255)
 
 
 # The ways the matcher is called: first as the course's notebooks call it (templeCoords' integer
@@ -104,7 +103,7 @@ def _match(student, case, convention: str = "course") -> Matched:
 def _best_match(student, case) -> Matched:
     """The course's call, and the earlier kits' call when the first is not worth full marks: the better one."""
     first = _match(student, case, "course")
-    v1 = None if first.problem else jc.matches(first.pts2, case.truth2, case.tol, case.ref_share)
+    v1 = None if first.problem else jc.matches(first.pts2, case.truth2, case.tol, case.ref_share, case.pts1)
     if v1 is not None and v1.passed and not first.errors:
         return first
     if first.problem and first.problem.endswith("is not defined in your notebooks"):
@@ -112,7 +111,7 @@ def _best_match(student, case) -> Matched:
     second = _match(student, case, "uint8")
     if second.problem:
         return first
-    v2 = jc.matches(second.pts2, case.truth2, case.tol, case.ref_share)
+    v2 = jc.matches(second.pts2, case.truth2, case.tol, case.ref_share, case.pts1)
     return second if v1 is None or v2.fraction > v1.fraction else first
 
 
@@ -135,9 +134,11 @@ def test_matches(correspondence, matched, scene_index, score):
     m = matched[case]
     if m.problem:
         score.grade(0.0, [m.problem])
-    v = jc.matches(m.pts2, case.truth2, case.tol, case.ref_share)
-    lines = [f"{case.label}: {v.measured} of the true ones (full marks from {v.goal[3:]})",
-             f"{_MATCH} was called with {m.how}"]
+    v = jc.matches(m.pts2, case.truth2, case.tol, case.ref_share, case.pts1)
+    lines = [f"{case.label}: {len(case.pts1)} easy points (distinctive windows along the true epipolar line) "
+             f"judged; {v.measured} of the true ones (full marks from {v.goal[3:]}, set from the weakest of "
+             f"{len(case.shares)} correct matcher styles, {case.ref_share:.0%} on these points)",
+             *v.lines, f"{_MATCH} was called with {m.how}"]
     if m.errors:
         lines.append(f"{_MATCH} failed on {m.errors} points" + (f", first: {m.first_error}" if m.first_error else ""))
     if m.reached < len(m.pts2):
@@ -183,9 +184,9 @@ def five_arguments(signature) -> bool:
 
 def _five_argument_points(student, c, n):
     """(verdict, how, problem) of compute3D_pts(temple_pts1, intrinsics, F, im1, im2): the points
-    come in the frame of the student's own findM2 (|t| = 1) and are scaled to the scene's |t|."""
+    come in the frame of the student's own findM2 (|t| = 1), judged up to a similarity; returned
+    alone or in a tuple with the cameras ((M2, C2, P) as 2022-2024 hand-ins return them)."""
     K = c.C1[:, :3]
-    scale = float(np.linalg.norm(np.linalg.solve(K, c.C2[:, 3])))
     xy = np.rint(c.pts1).astype(int)
     intrinsics = {"K1": K, "K2": K}
     im1, im2 = course_image(c.im1), course_image(c.im2)
@@ -197,12 +198,17 @@ def _five_argument_points(student, c, n):
                          + SECONDS["findM2"])[0]
         names = ("temple_pts1", "intrinsics", "F", "im1", "im2")
         try:
-            w = read_returned("compute3D_pts", o, lambda v: jc.read_points(v, n), args, names=names) * scale
+            w = read_returned("compute3D_pts", o, lambda v: jc.read_points(v, n), args, names=names)
         except Malformed as exc:
             problem = problem or str(exc)
             continue
-        return jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d), how, ""
+        return _structure(w, c), how, ""
     return None, "", problem
+
+
+def _structure(w, c):
+    """The verdict of 3D points w (P, 3) of the case's easy points on its true structure."""
+    return jc.points3d(w, c.truth3d, c.tol3d, c.ref_share_3d, c.pts1)
 
 
 def _linear_error(C1, pts1, C2, pts2) -> float:
@@ -237,8 +243,7 @@ def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
     if five_arguments(signatures("compute3D_pts")):
         direct_sig = "compute3D_pts(temple_pts1, intrinsics, F, im1, im2) as the course calls it"
         direct_v, how, direct_problem = _five_argument_points(student, c, n)
-        direct_how = (f"{how}, float images in [0, 1]; the points scaled from your findM2's |t| = 1 to the "
-                      "scene's")
+        direct_how = f"{how}, float images in [0, 1]; your points compared up to a similarity"
     for convention in (() if five_arguments(signatures("compute3D_pts")) else CONVENTIONS):
         how, coord, image = CONVENTIONS[convention]
         xy = np.vectorize(coord, otypes=[int if coord is not float else float])(c.pts1)
@@ -246,7 +251,7 @@ def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
         o = student.each("compute3D_pts", [args], seconds=SECONDS[_MATCH] * n + SECONDS["compute3D_pts.triangulate"])[0]
         try:
             w, pts2 = read_returned("compute3D_pts", o, lambda v: jc.read_points_pts2(v, n), args)
-            v = jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d)
+            v = _structure(w, c)
         except Malformed as exc:
             direct_problem = direct_problem or str(exc)
             continue
@@ -256,7 +261,7 @@ def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
         if v.passed:
             break
     w, pipe_problem = _pipeline(student, c, matched[c])
-    pipe_v = None if w is None else jc.points3d(w, c.C1, c.C2, c.pts1, c.truth2, c.tol, c.ref_share_3d)
+    pipe_v = None if w is None else _structure(w, c)
     if direct_v is not None and (pipe_v is None or direct_v.fraction >= pipe_v.fraction):
         return TemplePoints(direct_v, (f"graded through your {direct_sig}, called with {direct_how}",), direct_pts2)
     if pipe_v is not None:
@@ -273,8 +278,10 @@ def test_3D_points_of_the_temple(correspondence, temple_points, score):
     v, lines = temple_points.points, list(temple_points.lines)
     if v is None:
         score.grade(0.0, lines)
-    lines.append(f"{c.label}: {v.measured} of the point and its true match in both images "
-                 f"(full marks from {v.goal[3:]})")
+    lines.append(f"{c.label}: {v.measured} on the temple's surface, up to a similarity, of its "
+                 f"{len(c.pts1)} easy points (full marks from {v.goal[3:]}, set from the weakest of "
+                 f"{len(c.shares)} correct matcher styles)")
+    lines.extend(v.lines)
     score.grade(v.fraction, lines, v.mistakes)
 
 

@@ -6,7 +6,6 @@ reaches a student.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,8 +30,11 @@ class CorrespondenceCase:
     C1: np.ndarray
     C2: np.ndarray
     tol: float
-    ref_share: float        # the reference matcher's share within tol
-    ref_share_3d: float     # the reference compute3D_pts's share of right 3D points
+    ref_share: float        # the weakest correct matcher style's share within tol (solutions.matching_styles)
+    ref_share_3d: float     # the weakest style's share of 3D points on the structure
+    truth3d: np.ndarray = None   # (P, 3) the true points of pts1 (camera-1 frame)
+    tol3d: np.ndarray = None     # (P,) their 3D tolerance (solutions.matching_styles.surface_tolerance)
+    shares: tuple = ()           # ((style, share, share 3D), ...) the goal was set from
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,28 +44,15 @@ class Correspondence:
 
 
 def _correspondence_case(key, label, scene, count, rng) -> CorrespondenceCase:
-    """Points whose true match is known (unoccluded, and far enough from the point itself that
-    returning (x1, y1) or a nearby pixel cannot pass), with the reference's shares on them."""
-    from solutions import compute3D_pts, epipolarCorrespondence
+    """The scene's easy points and the goal several matcher styles set on them
+    (solutions.matching_styles.scene_problem)."""
+    from solutions.matching_styles import scene_problem
 
-    W, H = scene.width, scene.height
-    tol = jc.tolerance(W)
-    p1 = np.column_stack([scene.x1, scene.y1]).astype(float)
-    disparity = np.linalg.norm(scene.x2_true - p1, axis=1)
-    margin = 8
-    inside = np.all((p1 >= margin) & (p1 <= [W - 1 - margin, H - 1 - margin]), axis=1)
-    eligible = np.flatnonzero(scene.visible2 & inside & (disparity > 2 * tol))
-    if len(eligible) < 8:  # a degenerate hidden scene would make the check meaningless
-        eligible = np.flatnonzero(scene.visible2 & inside)
-    idx = np.sort(rng.choice(eligible, size=min(count, len(eligible)), replace=False))
-    pts1, truth2 = p1[idx], scene.x2_true[idx]
-    F = scene.F_true
-    ref = np.array([epipolarCorrespondence(scene.im1, scene.im2, F, x, y) for x, y in pts1])
-    C1, C2 = scene.K1 @ M1, scene.K2 @ scene.M2
-    case = CorrespondenceCase(key, label, scene.im1, scene.im2, F, pts1, truth2, C1, C2, tol,
-                              float(np.mean(jc.right_2d(ref, truth2, tol))), 0.0)
-    w_ref, _ = compute3D_pts(scene.im1, scene.im2, F, pts1[:, :1], pts1[:, 1:], C1, C2)
-    return dataclasses.replace(case, ref_share_3d=float(np.mean(jc.right_3d(w_ref, C1, C2, pts1, truth2, tol))))
+    rows, easy = scene_problem(scene, count, rng)
+    p1 = np.column_stack([np.ravel(scene.x1), np.ravel(scene.y1)]).astype(float)
+    return CorrespondenceCase(key, label, scene.im1, scene.im2, scene.F_true, p1[rows], scene.x2_true[rows],
+                              scene.K1 @ M1, scene.K2 @ scene.M2, jc.tolerance(scene.width), easy.ref_share,
+                              easy.ref_share_3d, scene.X_coords[rows], easy.tol3d, easy.shares)
 
 
 def matching_labels(config) -> list[str]:
