@@ -70,19 +70,31 @@ def _disarm():
     signal.setitimer(signal.ITIMER_PROF, 0)
 
 
-# seccomp: the syscall numbers of socket() and io_uring_setup() (io_uring can open sockets without
-# calling socket()) and the audit architecture, per machine this filter knows.
-_SECCOMP_ARCH = {"x86_64": (0xC000003E, 41, 425), "aarch64": (0xC00000B7, 198, 425)}
+# seccomp: per machine this filter knows, the audit architecture and the numbers of the syscalls it
+# refuses: socket() (every family: IPv4 and IPv6, and Unix sockets, by path or in the abstract
+# namespace, which two sandboxes of one machine could meet through), io_uring_setup() (io_uring can
+# open sockets without calling socket()), and the System V and POSIX IPC objects that any uid may
+# name: shmget, semget, msgget, mq_open.  socketpair() is another syscall and stays allowed: it
+# makes a connected pair no other process can join (multiprocessing's Pipe(duplex=True) uses it).
+_SECCOMP_ARCH = {
+    "x86_64": (0xC000003E, {"socket": 41, "io_uring_setup": 425, "shmget": 29, "semget": 64, "msgget": 68,
+                            "mq_open": 240}),
+    "aarch64": (0xC00000B7, {"socket": 198, "io_uring_setup": 425, "shmget": 194, "semget": 190, "msgget": 186,
+                             "mq_open": 180}),
+}
 
 
 def deny_internet():
-    """Refuse internet sockets to this process and everything it starts: None when done, else why not.
+    """Refuse sockets and shared IPC objects to this process and everything it starts: None when done, else why not.
 
     A seccomp filter (no capability needed once PR_SET_NO_NEW_PRIVS is set, so it works under
-    Docker's default capabilities): socket(AF_INET or AF_INET6, ...) and io_uring_setup fail with
-    EACCES, and so does every syscall of another ABI (x32, or 32-bit calls through int 0x80, which
-    would go around the numbers checked).  Unix sockets and pipes keep working.  Must run before
-    any thread starts (the filter covers the calling thread and those it starts later).
+    Docker's default capabilities): socket() of any family (internet and Unix sockets alike),
+    io_uring_setup, shmget, semget, msgget and mq_open fail with EACCES, and so does every syscall
+    of another ABI (x32, or 32-bit calls through int 0x80, which would go around the numbers
+    checked).  socketpair() and pipes keep working, and so do multiprocessing's fork-based Process,
+    Pool and Queue (pipes, and POSIX semaphores in /dev/shm); what needs a listening socket
+    (multiprocessing's Manager, the forkserver start method) does not.  Must run before any
+    thread starts (the filter covers the calling thread and those it starts later).
     """
     import ctypes
     import platform
@@ -91,23 +103,21 @@ def deny_internet():
     found = _SECCOMP_ARCH.get(platform.machine())
     if found is None:
         return f"no seccomp filter for the {platform.machine()} architecture"
-    arch, nr_socket, nr_io_uring = found
+    arch, refused = found
+    numbers = sorted(refused.values())
     ld, jeq, jge, ret = 0x20, 0x15, 0x35, 0x06        # BPF_LD|W|ABS, BPF_JMP|JEQ|K, BPF_JMP|JGE|K, BPF_RET|K
     allow, deny = 0x7FFF0000, 0x00050000 | 13         # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO | EACCES
-    arg0 = 16 if sys.byteorder == "little" else 20    # low 32 bits of args[0] in struct seccomp_data
-    program = [                                       # (code, jump if true, jump if false, k); 9 allows, 10 denies
+    n = len(numbers)
+    # (code, jump if true, jump if false, k): instruction 4 + n allows, 5 + n denies.
+    program = [
         (ld, 0, 0, 4),                                # 0: the architecture
-        (jeq, 0, 8, arch),                            # 1: another ABI: deny
+        (jeq, 0, 3 + n, arch),                        # 1: another ABI: deny
         (ld, 0, 0, 0),                                # 2: the syscall number
-        (jge, 6, 0, 0x40000000),                      # 3: x32 syscalls: deny
-        (jeq, 5, 0, nr_io_uring),                     # 4
-        (jeq, 0, 3, nr_socket),                       # 5: not socket(): allow
-        (ld, 0, 0, arg0),                             # 6: the address family
-        (jeq, 2, 0, 2),                               # 7: AF_INET
-        (jeq, 1, 0, 10),                              # 8: AF_INET6
-        (ret, 0, 0, allow),                           # 9
-        (ret, 0, 0, deny),                            # 10
+        (jge, 1 + n, 0, 0x40000000),                  # 3: x32 syscalls: deny
     ]
+    for k, nr in enumerate(numbers):                  # 4 .. 3 + n: a refused syscall: deny
+        program.append((jeq, n - k, 0, nr))
+    program += [(ret, 0, 0, allow), (ret, 0, 0, deny)]
     code = b"".join(struct.pack("HBBI", *ins) for ins in program)
     buffer = ctypes.create_string_buffer(code, len(code))
 
