@@ -307,6 +307,7 @@ class Session:
                 state["current"] = max(state["current"], index + 1)
             elif event == "end":
                 state["ended"] = True
+                state["restart"] = _short(rec.get("restart"), 500) if rec.get("restart") else None
             else:
                 raise _ProtocolError(f"unexpected record {str(event)[:40]!r}")
 
@@ -318,6 +319,10 @@ class Session:
             for k in range(n):
                 found.setdefault(k, CallOutcome("skipped", message=f"not run: {request['function']} used up its "
                                                 "time on the earlier inputs"))
+            if state.get("restart"):
+                # What the call left behind in the child could not be undone there (threads still
+                # running...): the next request gets a fresh child, so it costs only this question.
+                self._stop()
             return [found[k] for k in range(n)]
         # The child must go: it overran, ended or broke the protocol; it restarts for the next call.
         started = state["started"]
