@@ -42,6 +42,7 @@ from .uids import SHARED_TMP_DIRS, files_of_uid, remove_files_of_uid, sweep_uid,
 __all__ = ["QUOTA_CHECK", "Session"]
 
 QUOTA_CHECK = 0.25     # seconds between two checks of a child's disk use, where no tmpfs bounds it
+_LEAK_RESTARTS = 5     # fresh children per session for calls that left threads running (child._Leaks)
 
 _RESULT_FD_MIN = 100   # above the fds 3..9 the namespace's shell uses
 _MAX_LINE_SLACK = 2**20
@@ -130,6 +131,7 @@ class Session:
         self.over_quota: list[str] = []            # what went past the disk quota
         self.disk_stopped: dict[str, str] = {}     # function -> why it is not called again
         self._last_use = (0, 0)                    # the child's disk use at the last check
+        self.leak_restarts = 0                     # children replaced for what a call left behind
         self.calls = 0
         self.closed = False
 
@@ -340,9 +342,11 @@ class Session:
             for k in range(n):
                 found.setdefault(k, CallOutcome("skipped", message=f"not run: {request['function']} used up its "
                                                 "time on the earlier inputs"))
-            if state.get("restart"):
+            if state.get("restart") and self.leak_restarts < _LEAK_RESTARTS:
                 # What the call left behind in the child could not be undone there (threads still
                 # running...): the next request gets a fresh child, so it costs only this question.
+                # A few times only: each restart reloads the code, paid from the session's budget.
+                self.leak_restarts += 1
                 self._stop()
             return [found[k] for k in range(n)]
         # The child must go: it overran, ended or broke the protocol; it restarts for the next call.
@@ -486,12 +490,13 @@ class Session:
                     pass
             if self.rt.uid is not None:
                 self.swept += len(sweep_uid(self.rt.uid))
-                # Its processes are gone: what its uid left in /tmp, /var/tmp, /dev/shm... goes too
-                # (found by owner, links not followed), counted for staff.
+            shutil.rmtree(child.jobdir, ignore_errors=True)
+            if self.rt.uid is not None:
+                # Its processes are gone and its scratch folder with them: what its uid left in /tmp,
+                # /var/tmp, /dev/shm... goes too (found by owner, links not followed), counted for staff.
                 n, size = remove_files_of_uid(self.rt.uid)
                 self.removed[0] += n
                 self.removed[1] += size
-            shutil.rmtree(child.jobdir, ignore_errors=True)
 
     # -- the disk quota ------------------------------------------------------------------------
 
