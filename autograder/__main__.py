@@ -255,5 +255,43 @@ def main(argv=None) -> int:
     return run("python -m autograder", __doc__, COMMANDS, argv)
 
 
+HIDDEN_ARGUMENTS = b"[arguments hidden]"
+
+
+def hide_arguments() -> bool:
+    """Blank this process's arguments after the command's name in its ``/proc/<pid>/cmdline``.
+
+    Any process of the machine may read another's command line, sandboxed code at the ``uid``
+    level included (there is no pid namespace there): ``python -m autograder grade sub1 sub2 ...``
+    would name every submission of the batch, and its output folder.  Python keeps its own copy of
+    the arguments (``sys.argv``), so the original strings, which the kernel shows, are overwritten
+    in place (as setproctitle does), keeping the last byte NUL so that the kernel reads only this
+    area: ``ps`` then shows ``python -m autograder grade [arguments hidden]``.  The grading workers
+    get each submission on their stdin, never on a command line.  True when the line changed.
+    """
+    import ctypes
+
+    try:
+        with open("/proc/self/stat", "rb") as fh:
+            fields = fh.read().rsplit(b")", 1)[1].split()
+        start, end = int(fields[45]), int(fields[46])  # arg_start and arg_end: fields 48 and 49
+        with open("/proc/self/cmdline", "rb") as fh:
+            shown = fh.read()
+    except (OSError, ValueError, IndexError):
+        return False
+    parts = shown.split(b"\0")[:-1]
+    tail = len(sys.argv) - 2  # the arguments after the command's name
+    if len(shown) != end - start or tail <= 0 or len(parts) < tail + 2:
+        return False  # already rewritten, or nothing to hide
+    kept = b"\0".join(parts[:len(parts) - tail]) + b"\0"
+    text = kept + HIDDEN_ARGUMENTS + b"\0"
+    if len(text) > end - start:
+        text = kept
+    ctypes.memmove(start, text, len(text))
+    ctypes.memset(start + len(text), 0, end - start - len(text))
+    return True
+
+
 if __name__ == "__main__":
+    hide_arguments()
     sys.exit(main())

@@ -51,7 +51,7 @@ from core.text import write_atomic
 
 from . import grade
 from .config import GradingConfig, configuration, configuration_changes, load_config, tests_fingerprint
-from .gradebook import BatchRecord, earlier_records, read_state, write_grades_csv, write_summary
+from .gradebook import BatchRecord, earlier_records, read_state, staff_of, write_grades_csv, write_summary
 from .canary import check as canary_check
 from .grade import KIT_ROOT, hidden_cache
 from .hidden.inputs import build_hidden_inputs
@@ -460,7 +460,7 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
             _write_outputs(folder, result, _state(result, path, digest, staff, poison=poison))
             journal.clear(name)
         return BatchRecord(name, path, folder, result.score, {q.id: q.score for q in result.questions},
-                           result.failure, False, time.monotonic() - start, key, level)
+                           result.failure, False, time.monotonic() - start, key, level, **staff_of(staff))
 
     def work(path: Path, name: str, digest: str, attempt: int) -> BatchRecord | None:
         if cancel.is_set():
@@ -520,7 +520,8 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
                 iso = state.get("isolation")
                 done(k, BatchRecord(name, path, folder, float(state.get("score", 0.0)),
                                     dict(state.get("scores", {})), state.get("failure"), True, 0.0, key,
-                                    iso.get("level") if isinstance(iso, dict) else None))
+                                    iso.get("level") if isinstance(iso, dict) else None,
+                                    **staff_of(state.get("staff"))))
                 continue
         (suspects if deaths else rest).append((k, path, name, digest, deaths + 1))
 

@@ -18,7 +18,7 @@ from core.text import points, write_atomic
 
 from .results import autograded_question_ids, csv_header
 
-__all__ = ["BatchRecord", "earlier_records", "read_state", "write_grades_csv", "write_summary"]
+__all__ = ["BatchRecord", "earlier_records", "read_state", "staff_of", "write_grades_csv", "write_summary"]
 
 
 @dataclass(frozen=True)
@@ -26,7 +26,9 @@ class BatchRecord:
     """One submission of a batch: where its results are, its scores, and whether it was graded now.
 
     configuration_key: ``autograder.config.configuration_key`` of the grading (None: not recorded);
-    isolation: the sandbox level it ran at (None when no sandbox ran).
+    isolation: the sandbox level it ran at (None when no sandbox ran); removed: (entries, bytes) its
+    code left in the machine's shared temporary folders, removed by the grader; over_quota: what
+    went past the sandbox's disk quota (both for staff, from ``staff_of``).
     """
 
     name: str
@@ -39,6 +41,8 @@ class BatchRecord:
     seconds: float
     configuration_key: str | None = None
     isolation: str | None = None
+    removed: tuple[int, int] = (0, 0)
+    over_quota: tuple[str, ...] = ()
 
 
 def write_grades_csv(path: Path, records: Sequence) -> Path:
@@ -62,12 +66,22 @@ def read_state(folder: Path) -> dict | None:
     return state if isinstance(state, dict) else None
 
 
+def staff_of(staff) -> dict:
+    """The BatchRecord fields of a submission's staff notes: ``removed`` and ``over_quota``."""
+    staff = staff if isinstance(staff, dict) else {}
+    removed = staff.get("removed") if isinstance(staff.get("removed"), dict) else {}
+    quota = staff.get("over_quota") if isinstance(staff.get("over_quota"), list) else []
+    return {"removed": (int(removed.get("entries", 0) or 0), int(removed.get("bytes", 0) or 0)),
+            "over_quota": tuple(str(x) for x in quota)}
+
+
 def record_of(folder: Path, state: dict) -> BatchRecord:
     """The BatchRecord of a finished ``grading.json`` (KeyError/TypeError/ValueError when malformed)."""
     iso = state.get("isolation")
     return BatchRecord(folder.name, Path(state.get("path", "")), folder, float(state["score"]),
                        {k: float(v) for k, v in dict(state["scores"]).items()}, state.get("failure"), True, 0.0,
-                       state.get("configuration_key"), iso.get("level") if isinstance(iso, dict) else None)
+                       state.get("configuration_key"), iso.get("level") if isinstance(iso, dict) else None,
+                       **staff_of(state.get("staff")))
 
 
 def earlier_records(out: Path, exclude: set[str], key: str | None = None) -> list:
@@ -120,6 +134,15 @@ def write_summary(path: Path, records: Sequence, configuration: dict, *, cancell
     ]
     if failed:
         lines += ["", "## Could not be graded", ""] + [f"- {r.name}: {r.failure}" for r in failed]
+    quota = [r for r in records if r.over_quota]
+    if quota:
+        lines += ["", "## Past the sandbox's disk quota (those calls failed)", ""]
+        lines += [f"- {r.name}: {line}" for r in quota for line in r.over_quota[:5]]
+    left = [r for r in records if r.removed[0]]
+    if left:
+        lines += ["", "## Left in the shared temporary folders (/tmp, /var/tmp, /dev/shm, /run/lock), removed by the "
+                  "grader", ""]
+        lines += [f"- {r.name}: {r.removed[0]} files and folders, {r.removed[1] / 2**20:.1f} MB" for r in left]
     if cancelled:
         lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {n}" for n in cancelled]
     if library_calls is not None:

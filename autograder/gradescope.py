@@ -415,6 +415,9 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
     data["extra_data"]["timing"] = timing  # staff only: extra_data is not shown to students
     if "canary" in staff:
         data["extra_data"]["canary"] = staff["canary"]
+    for key in ("removed", "over_quota"):  # what the code left in shared temporary folders; its disk quota
+        if staff.get(key):
+            data["extra_data"][key] = staff[key]
     from core.text import write_atomic
 
     write_atomic(results / "results.json", json.dumps(data, indent=2, allow_nan=False), mode=0o600)
@@ -584,7 +587,7 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
             return SubmissionResult.failed(BROKEN, isolation=box.isolation.as_dict())
         timing["canary_seconds"] = round(time.monotonic() - t, 3)
         staff["canary"] = {"passed": True, "score": report.score, "max_score": report.max_score}
-        result = grade_submission(path, sandbox=box, hidden_inputs=hidden, deadline=deadline)
+        result = grade_submission(path, sandbox=box, hidden_inputs=hidden, deadline=deadline, staff=staff)
         # How it was graded (the bundle's settings; the submission's draw as a digest only).
         return dataclasses.replace(result, configuration=configuration(
             config, isolation=box.isolation.level, draw=(result.configuration or {}).get("draw")))

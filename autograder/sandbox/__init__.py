@@ -25,10 +25,13 @@ Isolation, strongest available first (``Sandbox.isolation`` says which was used;
     entry that denies that group (``deny.py``), and the probe checks, as that uid, that none of
     them can be read.  The Python must be reachable without opening a private folder: a pyenv
     under /root is refused with the fix (a venv from a public Python).  There is no network
-    namespace: the child refuses internet sockets itself with a seccomp filter installed before
-    any student code (``child.deny_internet``; no capability needed, checked by the probe), but
-    local Unix sockets and files any user may read stay reachable: the grader writes its own files
-    owner-only.
+    namespace: the child refuses sockets (internet and Unix alike) and System V / POSIX IPC
+    objects itself with a seccomp filter installed before any student code
+    (``child.deny_internet``; no capability needed, checked by the probe); files any user may read
+    stay readable (the grader writes its own files owner-only).  No private /tmp either: the
+    sandbox's group may only pass through /tmp, /var/tmp and /run/lock (``deny.traverse_only``),
+    /dev/shm stays writable, every child's files there are removed after it (``uids``), and its
+    disk use is a quota the session checks while calls run.
 ``basic`` (weak, only with ``allow_weak``)
     Resource limits, a new session killed as a group, the seccomp filter, and (as root) the
     dedicated uid plus the /proc sweep.  Hidden paths are NOT hidden: ``Isolation`` says so.
@@ -41,8 +44,9 @@ Student code never runs as root or as the grader's own user unless ``allow_weak`
 (``user-namespaces`` keeps the grader's uid, ``basic`` its files): without it, a machine where
 only a weak level works raises ``IsolationRefused`` saying what is missing and how to fix it.
 
-In every level: a fresh working folder (HOME) per child, removed afterwards, a minimal
-environment without the grader's variables, rlimits (CPU, address space, processes, file size,
+In every level: a fresh working folder (HOME) per child, with its temporary folders (TMPDIR,
+XDG_RUNTIME_DIR...) beside it, removed afterwards, a minimal environment without the grader's
+variables, what one request changes in the child undone before the next (``child._Leaks``), rlimits (CPU, address space, processes, file size,
 open files, no core files; ``script.py``), wall-clock limits per call and per session, and
 bounded reads of stdout, stderr and results.
 

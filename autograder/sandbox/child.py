@@ -25,7 +25,9 @@ The protocol is a session (the grader's side is ``autograder/sandbox/session.py`
   ``{"event": "loaded", "errors": [{origin, message}], "defined": [names]}``; then per call
   ``{"event": "start", "id"}``, ``{"event": "missing", "id", "message"}`` when the function is not
   there, one ``{"event": "item", "id", "index", "status", "value" | "message", "seconds"}`` per
-  input (status ok, exception, malformed, timeout or skipped) and ``{"event": "end", "id"}``.
+  input (status ok, exception, malformed, timeout or skipped) and ``{"event": "end", "id"}``, with
+  ``"restart": why`` when what the call left behind could not be undone (``_Leaks``): the grader
+  then starts a fresh child for the next request.
 - stdout and stderr belong to the student; the grader keeps a bounded copy and trusts neither.
 - the child's own stdin is /dev/null for the student's code (the requests arrive on a copy).
 """
@@ -72,19 +74,31 @@ def _disarm():
     signal.setitimer(signal.ITIMER_PROF, 0)
 
 
-# seccomp: the syscall numbers of socket() and io_uring_setup() (io_uring can open sockets without
-# calling socket()) and the audit architecture, per machine this filter knows.
-_SECCOMP_ARCH = {"x86_64": (0xC000003E, 41, 425), "aarch64": (0xC00000B7, 198, 425)}
+# seccomp: per machine this filter knows, the audit architecture and the numbers of the syscalls it
+# refuses: socket() (every family: IPv4 and IPv6, and Unix sockets, by path or in the abstract
+# namespace, which two sandboxes of one machine could meet through), io_uring_setup() (io_uring can
+# open sockets without calling socket()), and the System V and POSIX IPC objects that any uid may
+# name: shmget, semget, msgget, mq_open.  socketpair() is another syscall and stays allowed: it
+# makes a connected pair no other process can join (multiprocessing's Pipe(duplex=True) uses it).
+_SECCOMP_ARCH = {
+    "x86_64": (0xC000003E, {"socket": 41, "io_uring_setup": 425, "shmget": 29, "semget": 64, "msgget": 68,
+                            "mq_open": 240}),
+    "aarch64": (0xC00000B7, {"socket": 198, "io_uring_setup": 425, "shmget": 194, "semget": 190, "msgget": 186,
+                             "mq_open": 180}),
+}
 
 
 def deny_internet():
-    """Refuse internet sockets to this process and everything it starts: None when done, else why not.
+    """Refuse sockets and shared IPC objects to this process and everything it starts: None when done, else why not.
 
     A seccomp filter (no capability needed once PR_SET_NO_NEW_PRIVS is set, so it works under
-    Docker's default capabilities): socket(AF_INET or AF_INET6, ...) and io_uring_setup fail with
-    EACCES, and so does every syscall of another ABI (x32, or 32-bit calls through int 0x80, which
-    would go around the numbers checked).  Unix sockets and pipes keep working.  Must run before
-    any thread starts (the filter covers the calling thread and those it starts later).
+    Docker's default capabilities): socket() of any family (internet and Unix sockets alike),
+    io_uring_setup, shmget, semget, msgget and mq_open fail with EACCES, and so does every syscall
+    of another ABI (x32, or 32-bit calls through int 0x80, which would go around the numbers
+    checked).  socketpair() and pipes keep working, and so do multiprocessing's fork-based Process,
+    Pool and Queue (pipes, and POSIX semaphores in /dev/shm); what needs a listening socket
+    (multiprocessing's Manager, the forkserver start method) does not.  Must run before any
+    thread starts (the filter covers the calling thread and those it starts later).
     """
     import ctypes
     import platform
@@ -93,23 +107,21 @@ def deny_internet():
     found = _SECCOMP_ARCH.get(platform.machine())
     if found is None:
         return f"no seccomp filter for the {platform.machine()} architecture"
-    arch, nr_socket, nr_io_uring = found
+    arch, refused = found
+    numbers = sorted(refused.values())
     ld, jeq, jge, ret = 0x20, 0x15, 0x35, 0x06        # BPF_LD|W|ABS, BPF_JMP|JEQ|K, BPF_JMP|JGE|K, BPF_RET|K
     allow, deny = 0x7FFF0000, 0x00050000 | 13         # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO | EACCES
-    arg0 = 16 if sys.byteorder == "little" else 20    # low 32 bits of args[0] in struct seccomp_data
-    program = [                                       # (code, jump if true, jump if false, k); 9 allows, 10 denies
+    n = len(numbers)
+    # (code, jump if true, jump if false, k): instruction 4 + n allows, 5 + n denies.
+    program = [
         (ld, 0, 0, 4),                                # 0: the architecture
-        (jeq, 0, 8, arch),                            # 1: another ABI: deny
+        (jeq, 0, 3 + n, arch),                        # 1: another ABI: deny
         (ld, 0, 0, 0),                                # 2: the syscall number
-        (jge, 6, 0, 0x40000000),                      # 3: x32 syscalls: deny
-        (jeq, 5, 0, nr_io_uring),                     # 4
-        (jeq, 0, 3, nr_socket),                       # 5: not socket(): allow
-        (ld, 0, 0, arg0),                             # 6: the address family
-        (jeq, 2, 0, 2),                               # 7: AF_INET
-        (jeq, 1, 0, 10),                              # 8: AF_INET6
-        (ret, 0, 0, allow),                           # 9
-        (ret, 0, 0, deny),                            # 10
+        (jge, 1 + n, 0, 0x40000000),                  # 3: x32 syscalls: deny
     ]
+    for k, nr in enumerate(numbers):                  # 4 .. 3 + n: a refused syscall: deny
+        program.append((jeq, n - k, 0, nr))
+    program += [(ret, 0, 0, allow), (ret, 0, 0, deny)]
     code = b"".join(struct.pack("HBBI", *ins) for ins in program)
     buffer = ctypes.create_string_buffer(code, len(code))
 
@@ -145,6 +157,168 @@ class _Channel:
             except OSError:
                 os._exit(3)  # the grader is gone or the student closed the pipe: nothing to report to
             view = view[n:]
+
+
+# ---------------------------------------------------------------------------------------------
+# what one request may leave behind in this process, undone before the next
+
+
+_RLIMITS = ("RLIMIT_NOFILE", "RLIMIT_NPROC", "RLIMIT_AS", "RLIMIT_FSIZE", "RLIMIT_CPU", "RLIMIT_STACK", "RLIMIT_CORE")
+
+
+def _open_fds():
+    """The file descriptors open in this process (the listing's own descriptor left out)."""
+    import fcntl
+
+    try:
+        listed = [int(x) for x in os.listdir("/proc/self/fd")]
+    except OSError:
+        import resource
+
+        listed = range(min(resource.getrlimit(resource.RLIMIT_NOFILE)[0], 65536))
+    found = set()
+    for fd in listed:
+        try:
+            fcntl.fcntl(fd, fcntl.F_GETFD)
+            found.add(fd)
+        except OSError:
+            pass
+    return found
+
+
+def _thread_count():
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:
+        import threading
+
+        return threading.active_count()
+
+
+class _Leaks:
+    """The process state one request of student code may change and the next must not inherit.
+
+    ``_Leaks(keep)`` records it before a request; ``undo()`` afterwards puts back what can be put
+    back: file descriptors opened and left open are closed (not those in ``keep``, the protocol's),
+    fds 0, 1 and 2 point where they pointed (a call that sent them to /dev/null, or closed them),
+    the working folder, os.environ, signal handlers and the blocked-signal mask, the umask,
+    sys.stdin/stdout/stderr, trace and profile hooks, the recursion limit and switch interval,
+    the garbage collector's switch, numpy's floating-point error handling, the warnings filters
+    and the soft resource limits.  ``undo`` returns the reasons it could not (threads still
+    running, a hard limit lowered, a folder that is gone): then the grader starts a fresh
+    process before the next request, so one question's leak never costs another question.
+    """
+
+    def __init__(self, keep, std):
+        import gc
+        import resource
+        import threading
+        import warnings
+
+        self.keep, self.std = set(keep), tuple(std)
+        self.fds = _open_fds()
+        self.cwd = os.getcwd()
+        self.environ = dict(os.environ)
+        self.handlers = {}
+        for sig in signal.valid_signals():
+            if sig in (signal.SIGKILL, signal.SIGSTOP):
+                continue
+            try:
+                self.handlers[sig] = signal.getsignal(sig)
+            except (ValueError, OSError):
+                pass
+        self.mask = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+        self.umask = os.umask(0o077)
+        os.umask(self.umask)
+        self.streams = (sys.stdin, sys.stdout, sys.stderr)
+        self.hooks = (sys.gettrace(), sys.getprofile(), threading.gettrace(), threading.getprofile())
+        self.numbers = (sys.getrecursionlimit(), sys.getswitchinterval(), gc.isenabled())
+        numpy = sys.modules.get("numpy")
+        self.numpy_err = numpy.geterr() if numpy is not None else None
+        self.warnings = list(warnings.filters)
+        self.limits = {}
+        for name in _RLIMITS:
+            which = getattr(resource, name, None)
+            if which is not None:
+                self.limits[which] = resource.getrlimit(which)
+        self.threads = _thread_count()
+
+    def undo(self):
+        """Put the recorded state back; the list of what could not be."""
+        import gc
+        import resource
+        import threading
+        import warnings
+
+        lost = []
+        sys.stdin, sys.stdout, sys.stderr = self.streams
+        for fd, saved in zip((0, 1, 2), self.std):
+            try:
+                os.dup2(saved, fd)
+            except OSError:
+                lost.append(f"fd {fd} could not be restored")
+        for fd in sorted(_open_fds() - self.fds - self.keep - set(self.std) - {0, 1, 2}):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        try:
+            os.chdir(self.cwd)
+        except OSError:
+            lost.append("the working folder is gone")
+        if dict(os.environ) != self.environ:
+            for k in [k for k in os.environ if k not in self.environ]:
+                del os.environ[k]
+            for k, v in self.environ.items():
+                if os.environ.get(k) != v:
+                    os.environ[k] = v
+        for sig, handler in self.handlers.items():
+            try:
+                if handler is not None and signal.getsignal(sig) is not handler:
+                    signal.signal(sig, handler)
+            except (ValueError, OSError, TypeError):
+                lost.append(f"the handler of signal {sig} could not be restored")
+        signal.pthread_sigmask(signal.SIG_SETMASK, self.mask)
+        os.umask(self.umask)
+        sys.settrace(self.hooks[0])
+        sys.setprofile(self.hooks[1])
+        threading.settrace(self.hooks[2])
+        threading.setprofile(self.hooks[3])
+        try:
+            sys.setrecursionlimit(self.numbers[0])
+        except (RecursionError, ValueError):
+            lost.append("the recursion limit could not be restored")
+        sys.setswitchinterval(self.numbers[1])
+        (gc.enable if self.numbers[2] else gc.disable)()
+        numpy = sys.modules.get("numpy")
+        if numpy is not None and self.numpy_err is not None:
+            try:
+                numpy.seterr(**self.numpy_err)
+            except Exception:  # noqa: BLE001 - a student may have replaced numpy.seterr
+                lost.append("numpy's error handling could not be restored")
+        warnings.filters[:] = self.warnings
+        getattr(warnings, "_filters_mutated", lambda: None)()  # drop the caches of the old filters
+        for which, saved in self.limits.items():
+            try:
+                if resource.getrlimit(which) != saved:
+                    resource.setrlimit(which, saved)
+            except (OSError, ValueError):
+                lost.append("a resource limit was lowered for good")
+        # A thread just joined may still be listed for a moment (its OS thread ends after join returns).
+        end = time.monotonic() + 0.5
+        while _thread_count() > self.threads and time.monotonic() < end:
+            time.sleep(0.01)
+        if _thread_count() > self.threads:
+            lost.append("threads it started are still running")
+        return lost
+
+
+def _save_std():
+    """Copies of fds 0, 1 and 2 as they are before any student code (close-on-exec, so the code's
+    own processes do not inherit them); ``_Leaks.undo`` puts them back after every request."""
+    import fcntl
+
+    return tuple(fcntl.fcntl(fd, fcntl.F_DUPFD_CLOEXEC, 3) for fd in (0, 1, 2))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -411,6 +585,7 @@ def main(argv):
     requests = os.fdopen(os.dup(0), "rb")
     devnull = os.open(os.devnull, os.O_RDONLY)
     os.dup2(devnull, 0)  # input() in student code gets EOF, never a request
+    std = _save_std()  # before any student code: what fds 0, 1 and 2 are put back to after each request
     sys.stdin = open(os.devnull)  # noqa: SIM115
     job = json.loads(requests.readline())
     os.environ["MPLBACKEND"] = "Agg"
@@ -443,12 +618,19 @@ def main(argv):
         rid, name = request["id"], request["function"]
         channel.send({"event": "start", "id": rid})
         fn = module.__dict__.get(name)
+        end = {"event": "end", "id": rid}
         if not callable(fn):
             what = "is not defined" if name not in module.__dict__ else "is not a function"
             channel.send({"event": "missing", "id": rid, "message": f"{name} {what}"})
         else:
+            # What the call leaves behind (fds, the working folder, signal handlers...) is undone
+            # before the next request: the next question's functions start where this one started.
+            leaks = _Leaks((fd, requests.fileno(), devnull), std)
             _call(request, fn, channel, origins, limit, max_bytes, wire, np)
-        channel.send({"event": "end", "id": rid})
+            lost = leaks.undo()
+            if lost:
+                end["restart"] = "; ".join(dict.fromkeys(lost))[:500]
+        channel.send(end)
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()

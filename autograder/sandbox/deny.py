@@ -21,7 +21,7 @@ import stat
 import struct
 from pathlib import Path
 
-__all__ = ["SANDBOX_GID", "deny_group"]
+__all__ = ["SANDBOX_GID", "deny_group", "traverse_only"]
 
 _XATTR = "system.posix_acl_access"
 _VERSION = 2
@@ -57,10 +57,10 @@ def _entries(path: Path, mode: int) -> list[tuple[int, int, int]]:
             (_OTHER, mode & 7, _UNDEFINED)]
 
 
-def _deny_acl(path: Path, gid: int) -> None:
+def _deny_acl(path: Path, gid: int, perm: int = 0) -> None:
     mode = os.lstat(path).st_mode
     entries = [e for e in _entries(path, mode) if not (e[0] == _GROUP and e[2] == gid)]
-    entries.append((_GROUP, 0, gid))
+    entries.append((_GROUP, perm, gid))
     if not any(e[0] == _MASK for e in entries):
         # The mask bounds the group class; equal to the owning group's bits, it changes nobody's access.
         group_obj = next((e[1] for e in entries if e[0] == _GROUP_OBJ), (mode >> 3) & 7)
@@ -97,4 +97,26 @@ def deny_group(paths, gid: int = SANDBOX_GID) -> list[str]:
                 raise
             os.chmod(p, stat.S_IMODE(st.st_mode) & ~0o007)
             notes.append(f"{p}: no ACLs on its filesystem, so it was made unreadable to other users (chmod o-rwx)")
+    return notes
+
+
+def traverse_only(paths, gid: int = SANDBOX_GID) -> list[str]:
+    """Let processes of group ``gid`` only pass through each folder of ``paths`` (ACL ``--x``):
+    neither list it nor create, rename or remove anything in it; return notes.
+
+    For the machine's shared temporary folders (/tmp, /var/tmp, /run/lock) at the ``uid`` level:
+    two sandboxes graded at once cannot leave each other files there, while the paths below them
+    (the sandbox's scratch, a Python under /var/tmp) stay reachable.  Nobody else's access
+    changes.  Never falls back to changing the mode bits (that would take /tmp from every user):
+    a folder whose filesystem has no ACLs stays as it was, and the notes say so.
+    """
+    notes: list[str] = []
+    for p in paths:
+        p = Path(p)
+        if not p.is_dir() or p.is_symlink():
+            continue
+        try:
+            _deny_acl(p, gid, perm=1)
+        except OSError as exc:
+            notes.append(f"{p} stays writable to the sandbox ({exc.strerror or exc})")
     return notes

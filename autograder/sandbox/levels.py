@@ -30,14 +30,19 @@ import tempfile
 from pathlib import Path
 
 from . import script
-from .deny import SANDBOX_GID, deny_group
+from .deny import SANDBOX_GID, deny_group, traverse_only
 from .model import LEVELS, WEAK_LEVELS, Isolation, IsolationRefused, ResourceLimits
 from .script import Runtime
-from .uids import claim_uid, pick_uid, release_uid, sweep_uid
+from .uids import claim_uid, pick_uid, release_uid, remove_files_of_uid, sweep_uid
 
-__all__ = ["choose", "isolation_of", "python_fix"]
+__all__ = ["SHARED_TMP_DIRS_NO_WRITE", "choose", "isolation_of", "python_fix"]
 
-# Reads every path given on its command line; prints the ones it could read, as JSON.
+# The shared temporary folders the code may only pass through at the ``uid`` level (/dev/shm stays
+# writable: multiprocessing makes its semaphores there).
+SHARED_TMP_DIRS_NO_WRITE = ("/tmp", "/var/tmp", "/run/lock")
+
+# Reads every path given on its command line and tries to create a file in the shared temporary
+# folders; prints what it could read and where it could write, as JSON.
 _READ_PROBE = """\
 import json, os, socket, sys
 net = None
@@ -45,12 +50,13 @@ if sys.argv[1] == "deny":
     sys.path.insert(0, sys.argv[2])
     import child
     net = child.deny_internet()
-    if net is None:
-        try:
-            socket.socket(socket.AF_INET).close()
-            net = "an internet socket could still be made"
-        except PermissionError:
-            pass
+    for family, what in ((socket.AF_INET, "an internet socket"), (socket.AF_UNIX, "a Unix socket")):
+        if net is None:
+            try:
+                socket.socket(family).close()
+                net = what + " could still be made"
+            except PermissionError:
+                pass
 import numpy
 seen = []
 for p in sys.argv[3:]:
@@ -62,7 +68,15 @@ for p in sys.argv[3:]:
         seen.append(p)
     except OSError:
         pass
-print('sandbox-ok ' + json.dumps([os.getuid(), os.getgid(), seen, net]))
+wrote = []
+for d in ("/tmp", "/var/tmp", "/run/lock"):
+    try:
+        os.close(os.open(os.path.join(d, ".hw4-probe-%d" % os.getuid()), os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+        os.unlink(os.path.join(d, ".hw4-probe-%d" % os.getuid()))
+        wrote.append(d)
+    except OSError:
+        pass
+print('sandbox-ok ' + json.dumps([os.getuid(), os.getgid(), seen, net, wrote]))
 """
 
 
@@ -70,11 +84,16 @@ def isolation_of(rt: Runtime, notes: tuple[str, ...] = (), weak: bool = False) -
     """What a runtime isolates, in the words of the results."""
     namespaced = rt.namespaced
     extra = []
-    net = ("internet sockets (IPv4, IPv6) are refused by a seccomp filter (checked), local Unix sockets are not"
-           if rt.deny_internet else "the network stays reachable")
+    net = ("sockets (internet and Unix sockets alike) and System V and POSIX IPC objects are refused by a "
+           "seccomp filter (checked; socketpair() and pipes work)" if rt.deny_internet
+           else "the network and local Unix sockets stay reachable")
     if rt.level == "uid":
         extra.append(f"no namespaces here: the hidden paths are unreadable to the code's uid (checked), {net}, "
                      "and files that other users may read stay readable")
+        extra.append("the code's temporary folders are in its scratch folder; /tmp, /var/tmp and /run/lock only "
+                     "let it pass through (checked), /dev/shm stays writable (multiprocessing's semaphores), so "
+                     "submissions graded at the same time could exchange files there; what its uid leaves in any "
+                     "of them is removed after each child; its disk use is a quota checked while calls run")
     elif not namespaced:
         extra.append(f"hidden paths stay readable at this level; {net}")
     if rt.uid is None:
@@ -148,6 +167,9 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
             return python_fix(), None
         try:
             notes.extend(deny_group(hidden, SANDBOX_GID))
+            # No namespace gives the code a /tmp of its own: it may not write into the shared ones
+            # (two sandboxes of a --jobs batch would meet there); its temporary folders are in its scratch.
+            notes.extend(traverse_only(SHARED_TMP_DIRS_NO_WRITE, SANDBOX_GID))
         except OSError as exc:
             return (f"the hidden paths could not be made unreadable to the sandbox's group ({exc}); run the "
                     f"grader as the owner of its files, on a writable filesystem"), None
@@ -166,23 +188,27 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
     # Without a network namespace, the child refuses internet sockets itself (seccomp), when the
     # probe shows the filter works here.
     rt = Runtime(level, the_uid, lib, hidden, private_tmp, limits, gid, deny_internet=level in ("uid", "basic"))
-    reason, net = _probe(rt, scratch)
+    reason, net, tmp_note = _probe(rt, scratch)
     if rt.deny_internet and (reason is not None or net is not None):
         plain = dataclasses.replace(rt, deny_internet=False)
-        plain_reason, _ = _probe(plain, scratch)
+        plain_reason, _, tmp_note = _probe(plain, scratch)
         if plain_reason is None:  # the filter is what failed: the level works, the network stays reachable
             notes.append(f"{level}: internet sockets could not be refused ({net or reason})")
             rt, reason = plain, None
     if reason is not None:
         release_uid(the_uid, fd)
         return reason, None
+    if tmp_note:
+        notes.append(tmp_note)
     return None, (rt, fd)
 
 
-def _probe(rt: Runtime, scratch: Path) -> tuple[str | None, str | None]:
-    """``(reason, net)``: reason is None when a trivial program runs in ``rt`` (at the ``uid`` level:
-    as its uid, reading none of the hidden paths), else why not; net (with ``rt.deny_internet``) is
-    None when the seccomp filter was installed and refused an internet socket, else why not."""
+def _probe(rt: Runtime, scratch: Path) -> tuple[str | None, str | None, str | None]:
+    """``(reason, net, tmp)``: reason is None when a trivial program runs in ``rt`` (at the ``uid``
+    level: as its uid, reading none of the hidden paths), else why not; net (with
+    ``rt.deny_internet``) is None when the seccomp filter was installed and refused an internet and
+    a Unix socket, else why not; tmp (``uid`` level) names the shared temporary folders the code
+    could still create files in, else None."""
     jobdir = Path(tempfile.mkdtemp(prefix="probe", dir=scratch))
     os.chmod(jobdir, 0o711)
     try:
@@ -193,19 +219,22 @@ def _probe(rt: Runtime, scratch: Path) -> tuple[str | None, str | None]:
             proc = subprocess.run(script.command(rt, workdir, program), capture_output=True, timeout=60,
                                   stdin=subprocess.DEVNULL, check=False, **script.popen_options(rt, workdir, 60))
         except (OSError, subprocess.SubprocessError) as exc:
-            return f"{type(exc).__name__}: {exc}", None
+            return f"{type(exc).__name__}: {exc}", None, None
         out = proc.stdout.decode(errors="replace")
         if proc.returncode != 0 or "sandbox-ok " not in out:
             tail = proc.stderr.decode(errors="replace").strip().splitlines()[-1:] or [f"exit code {proc.returncode}"]
-            return tail[0][:300], None
-        got_uid, got_gid, seen, net = json.loads(out.split("sandbox-ok ", 1)[1].splitlines()[0])
+            return tail[0][:300], None, None
+        got_uid, got_gid, seen, net, wrote = json.loads(out.split("sandbox-ok ", 1)[1].splitlines()[0])
         if rt.uid is not None and (got_uid != rt.uid or got_uid in (0, os.getuid())):
-            return f"the code ran as uid {got_uid}, not the sandbox's {rt.uid}", None
+            return f"the code ran as uid {got_uid}, not the sandbox's {rt.uid}", None, None
         if rt.level == "uid" and seen:
             return (f"the sandbox's uid can still read {', '.join(seen[:5])}; make these paths unreadable to "
-                    f"other users (chmod o-rwx) or grade where namespaces work"), None
-        return None, net
+                    f"other users (chmod o-rwx) or grade where namespaces work"), None, None
+        if rt.level == "uid" and wrote:
+            return None, net, f"uid: the code can still create files in {', '.join(wrote)} (no ACL took)"
+        return None, net, None
     finally:
         shutil.rmtree(jobdir, ignore_errors=True)
         if rt.uid is not None:
             sweep_uid(rt.uid)
+            remove_files_of_uid(rt.uid)

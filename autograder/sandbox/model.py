@@ -29,8 +29,13 @@ class ResourceLimits:
     """Limits of one sandboxed process tree.
 
     memory_bytes: RLIMIT_AS of each process; processes: RLIMIT_NPROC (for the sandbox's own
-    uid, threads included); file_bytes: RLIMIT_FSIZE; open_files: RLIMIT_NOFILE; tmp_bytes: size
-    of the private /tmp (namespace levels); output_bytes: how much of stdout and of stderr is
+    uid, threads included); file_bytes: RLIMIT_FSIZE (one file); open_files: RLIMIT_NOFILE;
+    tmp_bytes and tmp_files: the disk one child may fill, in bytes and in files and folders: at
+    the namespace levels the size and inode count of each of its private tmpfs /tmp, /var/tmp and
+    /dev/shm (its scratch folder lies in /tmp), a hard limit; at the other levels a quota the
+    grader checks while calls run (``session.QUOTA_CHECK`` seconds apart) and after each, over
+    its scratch folder and what its uid owns in the shared temporary folders; a call past it is
+    stopped and fails; output_bytes: how much of stdout and of stderr is
     kept; result_bytes: largest encoded result; grace: seconds the grader waits beyond a call's
     own limit before killing the child (the child stops a call itself first).
 
@@ -51,6 +56,7 @@ class ResourceLimits:
     file_bytes: int = 64 * 2**20
     open_files: int = 256
     tmp_bytes: int = 256 * 2**20
+    tmp_files: int = 20000
     output_bytes: int = 64 * 1024
     result_bytes: int = 64 * 2**20
     grace: float = 2.0
@@ -137,7 +143,10 @@ class SessionInfo:
     load_errors: (origin, message) of units that failed to load (first start); defined: the
     functions and classes the loaded code defines; stdout, stderr: bounded, untrusted copies of
     what the child printed; spawns: child processes started; swept: processes the /proc sweeps
-    had to kill (0 when the namespace already ended them all); seconds: wall-clock time.
+    had to kill (0 when the namespace already ended them all); seconds: wall-clock time;
+    removed: (entries, bytes) the code's uid had left in the machine's shared temporary folders
+    (/tmp, /var/tmp, /dev/shm, /run/lock), removed after each child; over_quota: what went past
+    the disk quota (``ResourceLimits.tmp_bytes``, ``tmp_files``), one line per time.
     """
 
     load_errors: tuple[tuple[str, str], ...]
@@ -148,3 +157,5 @@ class SessionInfo:
     seconds: float
     spawns: int
     swept: int
+    removed: tuple[int, int] = (0, 0)
+    over_quota: tuple[str, ...] = ()

@@ -19,7 +19,7 @@ from pathlib import Path
 from .model import ResourceLimits
 from .uids import count_processes
 
-__all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "RESULT_DIRS", "Runtime", "command", "env", "make_workdir", "popen_options",
+__all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "RESULT_DIRS", "SCRATCH_DIRS", "Runtime", "command", "env", "make_workdir", "popen_options",
            "python_dirs_in_private_tmp", "unreachable_python_dirs"]
 
 MPL_CACHE = "mplconfig"
@@ -115,6 +115,11 @@ def unreachable_python_dirs() -> dict[Path, list[Path]]:
 # handouts of several years said `results/` or `../results/`).  Both lie inside the child's own
 # scratch area: the working folder is <scratch>/run, so `..` is the scratch folder itself.
 RESULT_DIRS = ("results", "../results")
+# The child's own temporary folders, beside its working folder in its scratch area (0700, the
+# sandbox uid's): TMPDIR, TEMP and TMP name the first, XDG_RUNTIME_DIR the second.  Every library
+# that asks where to put temporary files (tempfile, matplotlib, joblib...) is sent there, never
+# to the machine's shared /tmp.
+SCRATCH_DIRS = ("../tmp", "../xdg-runtime")
 
 
 def make_workdir(rt: Runtime, jobdir: Path) -> Path:
@@ -130,7 +135,7 @@ def make_workdir(rt: Runtime, jobdir: Path) -> Path:
     scratch.mkdir(mode=0o700)
     work = scratch / "run"
     work.mkdir(mode=0o700)
-    for rel in RESULT_DIRS:
+    for rel in RESULT_DIRS + SCRATCH_DIRS:
         (work / rel).mkdir(mode=0o700, exist_ok=True)
     if (rt.lib / MPL_CACHE).is_dir():
         shutil.copytree(rt.lib / MPL_CACHE, work / ".matplotlib")
@@ -144,10 +149,18 @@ def env(workdir: Path) -> dict[str, str]:
     """The child's whole environment: nothing of the grader's."""
     threads = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
                                 "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")}
+    tmp = os.path.normpath(workdir / SCRATCH_DIRS[0])
     return {
         "PATH": "/usr/local/bin:/usr/bin:/bin",
         "HOME": str(workdir),
-        "TMPDIR": str(workdir),
+        "TMPDIR": tmp,
+        "TEMP": tmp,
+        "TMP": tmp,
+        "JOBLIB_TEMP_FOLDER": tmp,
+        "XDG_RUNTIME_DIR": os.path.normpath(workdir / SCRATCH_DIRS[1]),
+        "XDG_CACHE_HOME": str(workdir / ".cache"),
+        "XDG_CONFIG_HOME": str(workdir / ".config"),
+        "XDG_DATA_HOME": str(workdir / ".local" / "share"),
         "LANG": "C.UTF-8",
         "LC_ALL": "C.UTF-8",
         "MPLBACKEND": "Agg",
@@ -243,7 +256,8 @@ def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
     if rt.private_tmp:
         for d in PRIVATE_TMP_DIRS:
             if os.path.isdir(d):
-                lines.append(f"mount -t tmpfs -o nosuid,nodev,size={rt.limits.tmp_bytes},mode=1777 tmpfs {d}")
+                lines.append(f"mount -t tmpfs -o nosuid,nodev,size={rt.limits.tmp_bytes},"
+                             f"nr_inodes={rt.limits.tmp_files},mode=1777 tmpfs {d}")
     for kfd, p in tmp_python:
         lines.append(f"mkdir -p {q(str(p))}")
         lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{kfd} {q(str(p))}")
@@ -261,12 +275,13 @@ def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
         lines.append(f"mount -o remount,bind,ro {q(str(lib))}")
         scratch = workdir.parent
         lines.append(f"mkdir -p {q(str(workdir))}")
-        lines.append("mkdir -p " + " ".join(q(os.path.normpath(workdir / rel)) for rel in RESULT_DIRS))
+        lines.append("mkdir -p " + " ".join(q(os.path.normpath(workdir / rel)) for rel in RESULT_DIRS + SCRATCH_DIRS))
         if (rt.lib / MPL_CACHE).is_dir():
             lines.append(f"cp -R {q(str(lib / MPL_CACHE))} {q(str(workdir / '.matplotlib'))}")
         if rt.uid is not None:
             lines.append(f"chown -R {rt.uid}:{rt.uid} {q(str(scratch))}")
-        lines.append(f"chmod 700 {q(str(scratch))} {q(str(workdir))}")
+        lines.append(f"chmod 700 {q(str(scratch))} {q(str(workdir))} "
+                     + " ".join(q(os.path.normpath(workdir / rel)) for rel in SCRATCH_DIRS))
     for kfd, _ in binds:
         lines.append(f"exec {kfd}<&-")
     lines.append(f"cd {q(str(workdir))}")

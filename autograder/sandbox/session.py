@@ -37,9 +37,12 @@ from core import wire
 from . import script
 from .model import CLOCKS, CallOutcome, Isolation, SessionInfo
 from .script import Runtime
-from .uids import sweep_uid
+from .uids import SHARED_TMP_DIRS, files_of_uid, remove_files_of_uid, sweep_uid, usage_of
 
-__all__ = ["Session"]
+__all__ = ["QUOTA_CHECK", "Session"]
+
+QUOTA_CHECK = 0.25     # seconds between two checks of a child's disk use, where no tmpfs bounds it
+_LEAK_RESTARTS = 5     # fresh children per session for calls that left threads running (child._Leaks)
 
 _RESULT_FD_MIN = 100   # above the fds 3..9 the namespace's shell uses
 _MAX_LINE_SLACK = 2**20
@@ -124,6 +127,11 @@ class Session:
         self.exhausted: set[str] = set()           # functions that ran out of memory (MemoryError)
         self.spawns = 0
         self.swept = 0
+        self.removed = [0, 0]                      # entries, bytes left in the shared temporary folders
+        self.over_quota: list[str] = []            # what went past the disk quota
+        self.disk_stopped: dict[str, str] = {}     # function -> why it is not called again
+        self._last_use = (0, 0)                    # the child's disk use at the last check
+        self.leak_restarts = 0                     # children replaced for what a call left behind
         self.calls = 0
         self.closed = False
 
@@ -174,6 +182,8 @@ class Session:
                                 stopped_by=self.stopped[function])] * n
         if function in self.exhausted:
             return [CallOutcome("skipped", message=f"not run: {function} ran out of memory earlier")] * n
+        if function in self.disk_stopped:
+            return [CallOutcome("skipped", message=f"not run: {function} went past the disk quota earlier")] * n
         if self.load_failure is None and self.child is None:
             self._spawn()
         if self.load_failure is not None:
@@ -196,7 +206,8 @@ class Session:
     @property
     def info(self) -> SessionInfo:
         return SessionInfo(tuple(self.load_errors), tuple(self.defined), self.out.text(), self.err.text(),
-                           self.isolation, time.monotonic() - self.started, self.spawns, self.swept)
+                           self.isolation, time.monotonic() - self.started, self.spawns, self.swept,
+                           (self.removed[0], self.removed[1]), tuple(self.over_quota))
 
     def close(self) -> SessionInfo:
         """Stop the child (its whole process tree) and return what happened."""
@@ -263,6 +274,9 @@ class Session:
         elif ended == "exited":
             why = ("crashed", "the process running the code ended without a result "
                    + _describe_exit(self.child.proc.returncode))
+        elif ended == "disk":
+            why = ("crashed", self._quota_message())
+            self.over_quota.append(f"loading: {why[1]}")
         else:
             why = ("malformed", f"the sandbox's output could not be read ({ended})")
         self._stop()
@@ -307,6 +321,7 @@ class Session:
                 state["current"] = max(state["current"], index + 1)
             elif event == "end":
                 state["ended"] = True
+                state["restart"] = _short(rec.get("restart"), 500) if rec.get("restart") else None
             else:
                 raise _ProtocolError(f"unexpected record {str(event)[:40]!r}")
 
@@ -314,10 +329,25 @@ class Session:
         if state["missing"] is not None:
             return [CallOutcome("missing", message=state["missing"])] * n
         culprit = next((k for k in range(n) if k not in found), None)
+        if ended is True and self._over_quota():
+            ended = "disk"  # the request ended, but what it wrote is past the quota: it fails all the same
+        if ended == "disk":
+            # Its files are removed with the child; the function would only fill the disk again.
+            message = self._quota_message()
+            self.over_quota.append(f"{request['function']}: {message}")
+            self.disk_stopped[request["function"]] = message
+            self._stop()
+            return [CallOutcome("crashed", message=message)] * n
         if ended is True:
             for k in range(n):
                 found.setdefault(k, CallOutcome("skipped", message=f"not run: {request['function']} used up its "
                                                 "time on the earlier inputs"))
+            if state.get("restart") and self.leak_restarts < _LEAK_RESTARTS:
+                # What the call left behind in the child could not be undone there (threads still
+                # running...): the next request gets a fresh child, so it costs only this question.
+                # A few times only: each restart reloads the code, paid from the session's budget.
+                self.leak_restarts += 1
+                self._stop()
             return [found[k] for k in range(n)]
         # The child must go: it overran, ended or broke the protocol; it restarts for the next call.
         started = state["started"]
@@ -367,10 +397,15 @@ class Session:
         max_line = self.rt.limits.result_bytes * 4 // 3 + _MAX_LINE_SLACK
         streams = {child.proc.stdout.fileno(): self.out, child.proc.stderr.fileno(): self.err}
         writing = False
+        next_check = time.monotonic() + QUOTA_CHECK
         try:
             while True:
                 if done():
                     return True
+                if time.monotonic() >= next_check:
+                    if self._over_quota():
+                        return "disk"
+                    next_check = time.monotonic() + QUOTA_CHECK
                 if child.pending and not writing:
                     child.sel.register(child.w, selectors.EVENT_WRITE)
                     writing = True
@@ -456,6 +491,44 @@ class Session:
             if self.rt.uid is not None:
                 self.swept += len(sweep_uid(self.rt.uid))
             shutil.rmtree(child.jobdir, ignore_errors=True)
+            if self.rt.uid is not None:
+                # Its processes are gone and its scratch folder with them: what its uid left in /tmp,
+                # /var/tmp, /dev/shm... goes too (found by owner, links not followed), counted for staff.
+                n, size = remove_files_of_uid(self.rt.uid)
+                self.removed[0] += n
+                self.removed[1] += size
+
+    # -- the disk quota ------------------------------------------------------------------------
+
+    def _quota_applies(self) -> bool:
+        # At the namespace levels with a private /tmp, tmpfs sizes bound the child's files (hard).
+        return not (self.rt.namespaced and self.rt.private_tmp)
+
+    def _disk_use(self) -> tuple[int, int]:
+        """(entries, bytes) of the running child: its scratch folder, and what its uid owns in the
+        shared temporary folders (all of /dev/shm, where it may create files; the first level of the
+        others, whose top it may not write into at the ``uid`` level)."""
+        count, size = usage_of(self.child.jobdir)
+        if self.rt.uid is not None:
+            for roots, deep in ((("/dev/shm",), True), (tuple(d for d in SHARED_TMP_DIRS if d != "/dev/shm"), False)):
+                for _, _, n, b in files_of_uid(self.rt.uid, roots, deep=deep):
+                    count += n
+                    size += b
+        return count, size
+
+    def _over_quota(self) -> bool:
+        if self.child is None or not self._quota_applies():
+            return False
+        count, size = self._disk_use()
+        limits = self.rt.limits
+        self._last_use = (count, size)
+        return size > limits.tmp_bytes or count > limits.tmp_files
+
+    def _quota_message(self) -> str:
+        count, size = self._last_use
+        limits = self.rt.limits
+        return (f"the code wrote {size / 2**20:.0f} MB in {count} files and folders, past the sandbox's disk quota "
+                f"({limits.tmp_bytes / 2**20:.0f} MB or {limits.tmp_files} files), and was stopped")
 
 
 def _parse(line: bytes) -> dict:

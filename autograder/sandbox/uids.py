@@ -1,17 +1,24 @@
-"""The sandbox's own uids: reserved across grader processes, and their processes found and killed."""
+"""The sandbox's own uids: reserved across grader processes, their processes found and killed, and
+what they left in the machine's shared temporary folders measured and removed."""
 
 from __future__ import annotations
 
 import fcntl
 import os
 import pwd
+import shutil
 import signal
+import stat
 import tempfile
 import threading
 import time
 from pathlib import Path
 
-__all__ = ["count_processes", "live_pids_of_uid", "pick_uid", "release_uid", "sweep_uid"]
+__all__ = ["SHARED_TMP_DIRS", "count_processes", "files_of_uid", "live_pids_of_uid", "pick_uid", "release_uid",
+           "remove_files_of_uid", "sweep_uid", "usage_of"]
+
+# The machine's world-writable folders where code without a private /tmp can leave files behind.
+SHARED_TMP_DIRS = ("/tmp", "/var/tmp", "/dev/shm", "/run/lock", "/var/lock")
 
 _IN_USE: set[int] = set()          # uids of live Sandboxes of this process
 _IN_USE_LOCK = threading.Lock()
@@ -134,3 +141,82 @@ def release_uid(uid: int | None, fd: int | None) -> None:
             _IN_USE.discard(uid)
     if fd is not None:
         os.close(fd)
+
+
+def _roots(roots) -> list[str]:
+    """The existing folders among ``roots``, each once (/var/lock is a link to /run/lock)."""
+    out: list[str] = []
+    for r in roots:
+        real = os.path.realpath(r)
+        if os.path.isdir(real) and real not in out:
+            out.append(real)
+    return out
+
+
+def _size(st: os.stat_result) -> int:
+    return st.st_blocks * 512  # what it takes on disk (or in memory): a sparse file takes little
+
+
+def usage_of(path: str | os.PathLike) -> tuple[int, int]:
+    """(entries, bytes) of the folder ``path`` and everything in it, links not followed."""
+    count, size = 1, 0
+    for top, dirs, files in os.walk(path):  # never follows links to folders
+        for name in dirs + files:
+            try:
+                st = os.lstat(os.path.join(top, name))
+            except OSError:
+                continue
+            count += 1
+            size += _size(st)
+    return count, size
+
+
+def files_of_uid(uid: int, roots=SHARED_TMP_DIRS, *, deep: bool = True):
+    """``[(path, is_folder, entries, bytes)]``: what ``uid`` owns in ``roots``, found by owner.
+
+    A folder of ``uid`` counts with everything in it.  With ``deep`` the search also descends into
+    other users' folders that any user may enter (a world-writable folder inside /tmp takes the
+    code's files as well as /tmp does); without it only the roots' own entries are looked at.
+    Symbolic links are never followed: a link the code made is itself its entry.
+    """
+    if uid in (0, os.getuid()):
+        raise ValueError(f"uid: expected the sandbox's own uid, got {uid}")
+    found = []
+    stack = _roots(roots)
+    while stack:
+        top = stack.pop()
+        try:
+            entries = list(os.scandir(top))
+        except OSError:
+            continue
+        for entry in entries:
+            try:
+                st = entry.stat(follow_symlinks=False)
+            except OSError:
+                continue
+            is_dir = stat.S_ISDIR(st.st_mode)
+            if st.st_uid == uid:
+                n, size = usage_of(entry.path) if is_dir else (1, 0)
+                found.append((entry.path, is_dir, n, size + _size(st)))
+            elif deep and is_dir and st.st_mode & stat.S_IXOTH:
+                stack.append(entry.path)
+    return found
+
+
+def remove_files_of_uid(uid: int, roots=SHARED_TMP_DIRS) -> tuple[int, int]:
+    """Remove everything ``uid`` owns in ``roots`` (``files_of_uid``); return (entries, bytes) removed.
+
+    Call it once the uid's processes are gone (``sweep_uid``), or new files may appear meanwhile.
+    """
+    count = size = 0
+    for path, is_dir, n, b in files_of_uid(uid, roots):
+        try:
+            if is_dir:
+                shutil.rmtree(path)  # refuses a link put in its place, never follows one inside
+            else:
+                os.unlink(path)
+        except OSError:
+            continue
+        count += n
+        size += b
+    return count, size

@@ -393,3 +393,167 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
             return scope["MultiviewReconstruction"](C1, pts1, C2, pts2, C3, pts3, Thres)
     raise FileNotFoundError("no answer key found")
 '''
+
+
+# --------------------------------------------------------------------------- leaks between questions (issue 17)
+
+LEAKS_PROCESS_STATE = '''\
+import os
+import signal
+import sys
+import warnings
+
+_key_epipolarCorrespondence = epipolarCorrespondence
+
+
+def epipolarCorrespondence(im1, im2, F, x1, y1):
+    """The key's match, but every call then sends fds 1 and 2 to /dev/null through descriptors it
+    never closes (one each: some 320 over a session, the limit is 256), moves to another folder
+    and changes what later code inherits."""
+    found = _key_epipolarCorrespondence(im1, im2, F, x1, y1)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 2)
+    os.chdir("/")
+    os.environ["HW4_LEAKED"] = "1"
+    os.umask(0o777)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    sys.stdout = open(os.devnull, "w")
+    warnings.simplefilter("error")
+    return found
+'''
+
+
+def fills_disk(megabytes: int = 60, files: int = 6) -> str:
+    """essentialMatrix that writes ``files`` files of ``megabytes`` MB into each shared temporary
+    folder it can (each file under the sandbox's 64 MB file-size limit)."""
+    return f'''\
+import os
+
+import numpy as np
+
+
+def essentialMatrix(F, K1, K2):
+    block = b"x" * 2**20
+    for folder in ("/tmp", "/var/tmp", "/dev/shm"):
+        for k in range({files}):
+            try:
+                with open(os.path.join(folder, "hw4-fill-%d-%d" % (os.getpid(), k)), "wb") as fh:
+                    for _ in range({megabytes}):
+                        fh.write(block)
+            except OSError:
+                break
+    return np.eye(3)
+'''
+
+
+def fills_inodes(count: int = 30000) -> str:
+    """essentialMatrix that creates ``count`` empty files in each shared temporary folder it can."""
+    return f'''\
+import os
+
+import numpy as np
+
+
+def essentialMatrix(F, K1, K2):
+    for folder in ("/tmp", "/var/tmp", "/dev/shm"):
+        try:
+            for k in range({count}):
+                open(os.path.join(folder, "hw4-inode-%d-%d" % (os.getpid(), k)), "w").close()
+        except OSError:
+            continue
+    return np.eye(3)
+'''
+
+
+COLLUDES = '''\
+import json
+import os
+import socket
+import time
+
+import numpy as np
+
+# Two copies of this cell graded at the same time (--jobs 2) try to meet, a little on each of their
+# first 20 eightpoint calls: through an abstract Unix socket (the first binds it, the other sends
+# to it) and through world-writable notes files in /tmp and /var/tmp.  Each call prints what
+# was heard so far where the grader keeps stdout.
+_me = "%d-%d" % (os.getuid(), os.getpid())
+_colluding = {"calls": 0, "server": None, "heard": []}
+
+
+def _collude():
+    state = _colluding
+    state["calls"] += 1
+    if state["calls"] == 1:
+        try:
+            server = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+            server.bind(b"\\0hw4-colluders")
+            server.settimeout(0.05)
+            state["server"] = server
+        except OSError:
+            pass
+        for folder in ("/tmp", "/var/tmp"):
+            try:
+                path = os.path.join(folder, "hw4-colluders-notes-" + _me)
+                with open(path, "w") as fh:
+                    fh.write("notes of " + _me)
+                os.chmod(path, 0o666)
+            except OSError:
+                pass
+    end = time.monotonic() + (0.3 if state["calls"] <= 20 else 0)
+    while time.monotonic() < end:
+        if state["server"] is not None:
+            try:
+                message = state["server"].recv(100).decode()
+                if message not in state["heard"]:
+                    state["heard"].append(message)
+            except OSError:
+                pass
+        else:
+            try:
+                client = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+                client.sendto(("socket of " + _me).encode(), b"\\0hw4-colluders")
+                client.close()
+            except OSError:
+                pass
+        for folder in ("/tmp", "/var/tmp"):
+            try:
+                for name in os.listdir(folder):
+                    if name.startswith("hw4-colluders-notes-") and not name.endswith(_me):
+                        with open(os.path.join(folder, name)) as fh:
+                            note = fh.read()
+                        if note not in state["heard"]:
+                            state["heard"].append(note)
+            except OSError:
+                pass
+        time.sleep(0.05)
+    print("COLLUDERS-HEARD " + json.dumps(state["heard"]), flush=True)
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    _collude()
+    return np.eye(3)
+'''
+
+LISTS_PROCESSES = '''\
+import json
+import os
+
+import numpy as np
+
+
+def eightpoint(pts1, pts2, M, refine=True):
+    # Every process's command line that this code can read, printed where the grader keeps stdout.
+    seen = []
+    for pid in os.listdir("/proc"):
+        if pid.isdigit():
+            try:
+                with open("/proc/%s/cmdline" % pid, "rb") as fh:
+                    line = fh.read().replace(b"\\0", b" ").decode(errors="replace").strip()
+            except OSError:
+                continue
+            if "autograder" in line or "hw4" in line or "subs" in line:
+                seen.append(line[:300])
+    print("PROCESSES " + json.dumps(seen), flush=True)
+    return np.eye(3)
+'''
