@@ -23,12 +23,10 @@ import csv
 import os
 import subprocess
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import parallel
 import pytest
 import realstyles
