@@ -46,6 +46,7 @@ from core.geometry import (
 from core.validate import as_positive_scalar
 
 from .cameras import intrinsics, projection, rotation_about
+from .envelope import BORDER_MARGIN, POSE_SLACK, pair_outside_envelope
 from .render import (
     Cylinder,
     SolidTexture,
@@ -237,16 +238,18 @@ def temple_model() -> list:
 
 # Nominal pose, tuned on the official pair: the temple turned 45 degrees about its axis (seen
 # from a corner, for depth relief), camera 2's swing pivot placed so that the mean y disparity
-# is about -7 px, and a roll that gives the x disparities their spread.
-_POSE = dict(turn_deg=45.0, tilt_deg=-6.0, pivot_offset=-0.13, roll_deg=-1.8)
+# is about -7 px, a roll that gives the x disparities their spread, and a slight pan (toe) of
+# camera 2 so that it does not fixate the pivot exactly (see _poses).
+_POSE = dict(turn_deg=45.0, tilt_deg=-6.0, pivot_offset=-0.13, roll_deg=-1.8, toe_deg=0.04)
 
 
 def _poses(rng, jitter: float, baseline_deg: float, distance: float):
     """Object placement (R_obj (3, 3), t_obj (3,)) in camera-1 coordinates, and camera 2's
     M2 (3x4).  ``jitter`` scales the seeded perturbations: a few degrees of the temple's
     turn and tilt, about 1 % of its position, 8 % of the swing angle, 2 degrees of the swing
-    axis and 0.3 degrees of camera 2's roll."""
-    n = rng.standard_normal(10) * jitter
+    axis, 0.3 degrees of camera 2's roll, and camera 2's toe between half and 1.5 times its
+    nominal size, of either sign (never zero, see below)."""
+    n = rng.standard_normal(12) * jitter
     # Temple up (object z) to image left (-x), facade across image y, depth away from camera 1;
     # then turned about its own axis and tilted so that its depth shows.
     base = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -263,7 +266,15 @@ def _poses(rng, jitter: float, baseline_deg: float, distance: float):
     pivot = np.array([0.0, 0.0, target[2] + _POSE["pivot_offset"] + 0.03 * n[8]])
     Q = rotation_about(swing_axis, angle)  # camera 2's rig is camera 1's rotated by Q about the pivot
     roll = rotation_about([0, 0, 1], np.deg2rad(_POSE["roll_deg"] + 0.3 * n[9]))
-    R2 = roll @ Q.T
+    # Why a toe: the swing axis is perpendicular to camera 1's optical axis, so the swing keeps
+    # both optical axes in one plane wherever the pivot is; they meet, and E[2, 2] (x2 = x1 = the
+    # principal point) is exactly 0, which no real capture gives (the official pair: E33/|E| about
+    # -2.8e-4) and which turns a student's E / E[2, 2] into inf or NaN.  Panning camera 2 about its
+    # own y axis tilts its axis out of that plane: |E33|/|E| is about toe (radians) / sqrt(2).  The
+    # seeded part scales the size (tanh keeps it within 0.5 to 1.5 times nominal, so it never
+    # crosses zero) and picks the sign.
+    toe = _POSE["toe_deg"] * (1.0 + 0.5 * np.tanh(n[10])) * (-1.0 if n[11] < 0 else 1.0)
+    R2 = rotation_about([0, 1, 0], np.deg2rad(toe)) @ roll @ Q.T
     c2 = pivot - Q @ pivot
     M2 = np.hstack([R2, (-R2 @ c2)[:, None]])
     return R_obj, t_obj, M2
@@ -352,6 +363,7 @@ def _to_uint16(xy: np.ndarray) -> np.ndarray:
 _MARGIN = 10  # pixels kept clear of every image border, so a 15x15 window always fits
 _DISTANCE = 7.6  # camera 1 to the temple, in scene units
 _MIN_SIZE = 96
+_POSE_TRIES = 20
 
 
 def _check_int(value, name: str, minimum: int) -> int:
@@ -374,7 +386,8 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
                       n_outliers: int = 30, n_coords: int = 288, noise_px: float = 0.2,
                       baseline_deg: float = 11.0, focal: float | None = None, jitter: float = 1.0,
                       epipolar_outliers: float = 0.5, image_noise: float = 1.2,
-                      exposure2: float = 0.96, supersample: int = 2) -> TempleScene:
+                      exposure2: float = 0.96, supersample: int = 2,
+                      coords_margin: int = BORDER_MARGIN) -> TempleScene:
     """Render a two-view temple scene and pick its correspondences, with ground truth.
 
     The defaults give data like the official set: 640x480 images, focal length about 1520 px,
@@ -417,6 +430,10 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
         Brightness of view 2 relative to view 1 (the official im2 is slightly darker).
     supersample : int
         Anti-aliasing: samples per pixel along each axis at edges.
+    coords_margin : int
+        Pixels every templeCoords point and its true match in view 2 keep from every border
+        (default scenes.envelope.BORDER_MARGIN: a 101 px window fits without padding); at
+        least 10.  Smaller images than the envelope's need a smaller value.
 
     Returns
     -------
@@ -435,6 +452,7 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
     image_noise = _check_range(image_noise, "image_noise", 0.0, 50.0)
     exposure2 = _check_range(exposure2, "exposure2", 0.25, 4.0)
     supersample = _check_int(supersample, "supersample", 1)
+    coords_margin = _check_int(coords_margin, "coords_margin", _MARGIN)
     scale = min(width / _REF_WIDTH, height / _REF_HEIGHT)
     f = 1520.0 * scale if focal is None else as_positive_scalar(focal, "focal")
 
@@ -442,7 +460,15 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
     geo_rng, look_rng, img_rng, pts_rng = np.random.default_rng(seed).spawn(4)
     K = intrinsics(f, _PP_FRACTION[0] * width, _PP_FRACTION[1] * height, f * _FY_OVER_FX)
     M1 = IDENTITY_POSE.copy()
-    R_obj, t_obj, M2 = _poses(geo_rng, jitter, baseline_deg, _DISTANCE)
+    # A seeded pose whose E or F has a last entry near zero (scenes.envelope) is drawn again from
+    # the same stream: a student's E / E[2, 2] or F / F[2, 2] must stay well conditioned.
+    for _ in range(_POSE_TRIES):
+        R_obj, t_obj, M2 = _poses(geo_rng, jitter, baseline_deg, _DISTANCE)
+        outside = pair_outside_envelope(K, K, M2, slack=POSE_SLACK)
+        if not outside:
+            break
+    else:
+        raise ValueError(f"baseline_deg, jitter: no pose inside the envelope in {_POSE_TRIES} draws ({outside[0]})")
     prims = [p.transformed(R_obj, t_obj) for p in temple_model()]
 
     albedo = _stone_albedo(look_rng)
@@ -460,7 +486,7 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
     scene_args = dict(K=K, M1=M1, M2=M2, prims=prims, g1=g1, g2=g2, width=width, height=height)
     clean, outliers = _correspondences(pts_rng, n_corresp, n_outliers, noise_px, epipolar_outliers,
                                        **scene_args)
-    coords = _temple_coords(pts_rng, n_coords, **scene_args)
+    coords = _temple_coords(pts_rng, n_coords, coords_margin, **scene_args)
 
     n_all = n_corresp + n_outliers
     order = pts_rng.permutation(n_all)
@@ -604,10 +630,11 @@ def _occluding_edges(g) -> np.ndarray:
     return edge
 
 
-def _temple_coords(rng, n_coords, *, K, M1, M2, prims, g1, g2, width, height):
+def _temple_coords(rng, n_coords, margin, *, K, M1, M2, prims, g1, g2, width, height):
     """templeCoords: integer pixels of view 1 on the temple, about half in a band just inside
     its outline (like the official hand-traced points) and the rest spread over its faces,
-    all at least a window's half-width from any occluding edge of view 1."""
+    all at least a window's half-width from any occluding edge of view 1, and each point and
+    its true match in view 2 at least ``margin`` px from every border."""
     px = min(width / _REF_WIDTH, height / _REF_HEIGHT)
     band = [max(3.0, v * px) for v in _COORDS["band"]]
     full1 = (g1.coverage >= 1) & (g1.prim >= 0)
@@ -623,7 +650,7 @@ def _temple_coords(rng, n_coords, *, K, M1, M2, prims, g1, g2, width, height):
               (in_area & inner, lambda got: n_coords - got, "area"),
               (full1 & (inset >= 2) & (gap >= 2), lambda got: n_coords - got, "area")]
     inner_frame = np.zeros_like(full1)
-    inner_frame[_MARGIN:-_MARGIN, _MARGIN:-_MARGIN] = True
+    inner_frame[margin:-margin, margin:-margin] = True
     picked = np.zeros((0, 2))
     for mask, want, shape in groups:
         n = want(len(picked))
@@ -638,14 +665,17 @@ def _temple_coords(rng, n_coords, *, K, M1, M2, prims, g1, g2, width, height):
         hits = cast_rays(prims, o, d)
         ok = np.isfinite(hits.t)
         ok[ok] &= _facing(hits.normal[ok], o + hits.t[ok, None] * d[ok], o) >= _COORDS["facing"]
+        # The true match must leave the same room in view 2: a matcher cuts its window there too.
+        ok[ok] &= _inside(project(projection(K, M2), o + hits.t[ok, None] * d[ok]), width, height, margin)
         xy = xy[ok]
         # Spacing for n points along a band, or over an area.
         spacing = len(xs) / (band[1] - band[0] + 1) / n if shape == "band" else np.sqrt(len(xs) / n)
         picked = np.concatenate([picked, xy[_spread(xy, n, rng, 0.9 * spacing)]])
     xy1 = picked
     if len(xy1) < n_coords:
-        raise ValueError(f"n_coords: only {len(xy1)} temple pixels found for the {n_coords} asked; "
-                         "use fewer points or a larger image")
+        raise ValueError(f"n_coords: only {len(xy1)} temple pixels found at least {margin} px from the "
+                         f"borders for the {n_coords} asked; use fewer points, a larger image or a "
+                         "smaller coords_margin")
     o, d = pixel_rays(K, M1, xy1)
     X = o + cast_rays(prims, o, d).t[:, None] * d
     x2 = project(projection(K, M2), X)
