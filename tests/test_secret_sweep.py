@@ -57,11 +57,7 @@ HOMEWORK = ("eightpoint", "essentialMatrix", "triangulate", "findM2", "epipolarC
 GRADED = (*HOMEWORK, "plot_3d_keypoint_video")
 _HOMEWORK = dict.fromkeys(HOMEWORK)
 
-# Corpus cases run here: not the hostile ones (exits, bombs, loops, grader files: the sandbox's
-# business) nor those broken after writing (``post``: an unreadable file, the same under any secret).
-_HOSTILE = ("patched_numpy", "always_true", "exit", "infinite_loop", "bomb", "reads_grader", "writes_results",
-            "prints_fake", "process_left")
-CASE_NAMES = [n for n, c in corpus.CASES.items() if c.post is None and not any(h in n for h in _HOSTILE)]
+CASE_NAMES = list(corpus.IN_PROCESS)
 
 _Q2 = frozenset({"Q2"})
 # A wrong triangulate costs also the questions graded through it (the key's findM2 and compute3D_pts),

@@ -23,7 +23,7 @@ from core.manifest import NOTEBOOKS
 
 from . import hostile, variants
 
-__all__ = ["CASES", "KIT_ROOT", "Case", "build", "notebooks", "program_namespace", "trap_path"]
+__all__ = ["CASES", "IN_PROCESS", "KIT_ROOT", "Case", "build", "notebooks", "program_namespace", "trap_path"]
 
 KIT_ROOT = Path(__file__).resolve().parents[2]
 ALL_AUTOGRADED = frozenset({"Q2", "Q3.1", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6"})
@@ -265,3 +265,12 @@ def program_namespace(name: str, homework, case: Case | None = None) -> dict:
             except Exception:  # noqa: BLE001 - a failing statement costs nothing, as in the grader
                 pass
     return namespace
+
+
+# What tests may run in their own process (tests/test_judgments_agree.py, tests/test_secret_sweep.py):
+# not the hostile cases (exits, bombs, loops, grader files, leaked process state: the sandbox's
+# business, and they would break the test process itself) nor those broken after writing (``post``:
+# an unreadable file, the same under any secret).
+_SANDBOX_ONLY = ("patched_numpy", "always_true", "exit", "infinite_loop", "bomb", "reads_grader", "writes_results",
+                 "prints_fake", "process_left", "leaks_")
+IN_PROCESS = tuple(n for n, c in CASES.items() if c.post is None and not any(h in n for h in _SANDBOX_ONLY))
