@@ -50,7 +50,9 @@ autograde`` on untrusted submissions on a machine or container that holds nothin
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime as _dt
+import os
 import shutil
 import subprocess
 import sys
@@ -269,7 +271,7 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
         When the answer key did not get full marks here; its message says why and how to fix
         it, and the gradebook is left untouched.
     """
-    from nbgrader.api import Gradebook, MissingEntry
+    from nbgrader.api import MissingEntry
 
     from . import canary
     from .config import load_config
@@ -285,7 +287,7 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
     config = config if config is not None else load_config()
     hidden = build_hidden_inputs(config)
     results = {}
-    with Gradebook(f"sqlite:///{db}", COURSE_ID) as gb:
+    with gradebook(db) as gb:
         for student in names:
             try:
                 gb.find_submission(assignment, student)
@@ -302,7 +304,7 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
             result = grade_submission(folder, sandbox=box, hidden_inputs=hidden, student_id=student)
             results[student] = result
             verdicts = _verdicts(result)
-            with Gradebook(f"sqlite:///{db}", COURSE_ID) as gb:
+            with gradebook(db) as gb:
                 submission = gb.find_submission(assignment, student)
                 for notebook in submission.notebooks:
                     for grade in notebook.grades:
@@ -435,6 +437,40 @@ def build_course(out: str | Path, *, kit_root: str | Path = KIT_ROOT, stems=None
 # running nbgrader, submissions, scores
 
 
+def tools_path() -> str:
+    """PATH with the running environment's own scripts folder first.
+
+    nbgrader's Gradebook runs the ``alembic`` command it finds on PATH; a Python started as
+    ``.venv/bin/python`` without activating the environment has that command beside it, not on
+    PATH, so the run would depend on the shell it came from.
+    """
+    here = str(Path(sys.executable).parent)   # not resolved: a venv's python is a symlink out of it
+    old = os.environ.get("PATH", "")
+    return old if here in old.split(os.pathsep) else here + os.pathsep + old
+
+
+@contextlib.contextmanager
+def _own_tools():
+    old = os.environ.get("PATH")
+    os.environ["PATH"] = tools_path()
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("PATH", None)
+        else:
+            os.environ["PATH"] = old
+
+
+@contextlib.contextmanager
+def gradebook(db: str | Path):
+    """nbgrader's Gradebook of the sqlite file ``db`` for this course, opened with this environment's tools."""
+    from nbgrader.api import Gradebook
+
+    with _own_tools(), Gradebook(f"sqlite:///{db}", COURSE_ID) as gb:
+        yield gb
+
+
 def run_nbgrader(course: str | Path, *args: str, timeout: float = 1800) -> subprocess.CompletedProcess:
     """``nbgrader <args>`` in the course folder with this Python; its output (stdout+stderr).
 
@@ -444,7 +480,8 @@ def run_nbgrader(course: str | Path, *args: str, timeout: float = 1800) -> subpr
         When nbgrader is not installed or the command fails (with the end of its log).
     """
     proc = subprocess.run([sys.executable, "-m", "nbgrader", *args], cwd=course, stdout=subprocess.PIPE,
-                          stderr=subprocess.STDOUT, text=True, timeout=timeout, check=False)
+                          stderr=subprocess.STDOUT, text=True, timeout=timeout, check=False,
+                          env={**os.environ, "PATH": tools_path()})
     if proc.returncode != 0:
         tail = "\n".join(proc.stdout.splitlines()[-40:])
         raise RuntimeError(f"nbgrader {' '.join(args)} failed (exit code {proc.returncode}):\n{tail}")
@@ -507,11 +544,9 @@ def submit_key(course: str | Path, student: str) -> Path:
 def autograded_scores(course: str | Path, student: str) -> dict[str, tuple[float, float]]:
     """``grade_id -> (score, max_score)`` of the autograded code cells of ``student``'s hw4, as
     nbgrader counts them (``score`` includes the cell's extra credit)."""
-    from nbgrader.api import Gradebook
-
     course = Path(course)
     out = {}
-    with Gradebook(f"sqlite:///{course / 'gradebook.db'}", COURSE_ID) as gb:
+    with gradebook(course / "gradebook.db") as gb:
         submission = gb.find_submission(ASSIGNMENT, student)
         for notebook in submission.notebooks:
             for grade in notebook.grades:

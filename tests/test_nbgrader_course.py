@@ -133,6 +133,20 @@ def test_course_folder_holds_no_grader_and_no_secret(tmp_path, grading_settings)
     assert (other / "precious.txt").read_text() == "keep me"
 
 
+def test_the_gradebook_opens_from_a_shell_without_the_environment_on_path(tmp_path, monkeypatch):
+    """nbgrader's Gradebook runs ``alembic`` from PATH: a grader started as .venv/bin/python, its
+    environment not activated, still finds the one beside its Python, and PATH is left as it was."""
+    pytest.importorskip("nbgrader")
+    from autograder.nbgrader_course import gradebook
+
+    bare = os.pathsep.join(p for p in ("/usr/bin", "/bin") if Path(p).is_dir())
+    monkeypatch.setenv("PATH", bare)
+    with gradebook(tmp_path / "gradebook.db") as gb:
+        gb.add_student("ada")
+        assert [s.id for s in gb.students] == ["ada"]
+    assert os.environ["PATH"] == bare
+
+
 def test_cli_registers_the_nbgrader_commands():
     from autograder.__main__ import build_parser
 
