@@ -507,8 +507,10 @@ def one_camera_depth(M2, M2_true, X, tol_deg: float = 1.0) -> Mistake | None:
     X (N, 3) in front of one camera and behind the other (the twisted pair, or its mirror).
 
     Such a candidate passes a depth test of one camera alone; the other wrong ones put the points
-    behind camera 1 (or both).  The exact projections of X are triangulated with M1 = [I | 0] and
-    M2 in normalised coordinates (noise-free: every linear method gives the same points).
+    behind camera 1 (or both).  The exact normalised projections x1, x2 of X meet under M2 = [R | t]
+    where lam R x1 + t is parallel to x2 (noise-free, the rays meet): lam is the depth in camera 1,
+    and the third coordinate of lam R x1 + t the depth in camera 2.  (No triangulation of Q3.2's
+    kind: this ships with the public checks.)
     """
     M2, M2_true, X = np.asarray(M2, float), np.asarray(M2_true, float), np.asarray(X, float)
     if M2.shape != (3, 4) or X.ndim != 2 or X.shape[1:] != (3,) or len(X) == 0 or not np.all(np.isfinite(M2)):
@@ -516,15 +518,13 @@ def one_camera_depth(M2, M2_true, X, tol_deg: float = 1.0) -> Mistake | None:
     if wrong_camera(M2, M2_true, tol_deg) is None:
         return None
     x1 = X / X[:, 2:]
-    Y = X @ M2_true[:, :3].T + M2_true[:, 3]
-    x2 = Y / Y[:, 2:]
-    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
-    A = np.stack([x1[:, :1] * M1[2] - M1[0], x1[:, 1:2] * M1[2] - M1[1],
-                  x2[:, :1] * M2[2] - M2[0], x2[:, 1:2] * M2[2] - M2[1]], axis=1)
-    H = np.linalg.svd(A)[2][:, -1, :]
+    x2 = X @ M2_true[:, :3].T + M2_true[:, 3]          # a multiple of the normalised projection: enough
+    rotated = x1 @ M2[:, :3].T                          # R x1, per point
+    # x2 x (lam R x1 + t) = 0  =>  lam = -(x2 x t) . (x2 x R x1) / |x2 x R x1|^2
+    across = np.cross(x2, rotated)
     with np.errstate(divide="ignore", invalid="ignore"):
-        w = H[:, :3] / H[:, 3:]
-        z1, z2 = depths(M1, w), depths(M2, w)
+        z1 = -np.sum(np.cross(x2, M2[:, 3]) * across, axis=1) / np.sum(across * across, axis=1)
+        z2 = z1 * rotated[:, 2] + M2[2, 3]
     for front, behind, a, b in ((z1, z2, 1, 2), (z2, z1, 2, 1)):
         if np.all(front > 0) and np.all(behind < 0):
             return mistake("depth_one_camera", f"your M2 puts all {len(X)} points in front of camera {a} "

@@ -2,7 +2,7 @@
 
   run        the whole pipeline with the reference solutions on a data folder (the main job)
   data       regenerate the default data/ from the seeded scene generator
-  matching-goals  write the public self-check's Q4 easy points and goals (starter/checks/matching_goals.json)
+  check-data  write the data the public self-checks precompute (starter/checks/*.json: Q4 goals, Q3.3 case)
   notebooks  build the student notebooks, the answer key and the nbgrader source from solutions/
   release    write the student release (no solutions, no answer key, no autograder)
 
@@ -21,9 +21,9 @@ COMMANDS = {
                    install="pip install -r requirements.txt"),
     "data": Command("kit.cli", "write_data", "regenerate the default data folder from the scene generator",
                     arguments="data_arguments", needs=("PIL",), install="pip install pillow"),
-    "matching-goals": Command("kit.matching_goals", "main",
-                              "write the public self-check's Q4 easy points and goals from the matcher styles",
-                              needs=("scipy",), install="pip install -r requirements.txt"),
+    "check-data": Command("kit.check_data", "main",
+                          "write the public self-checks' precomputed data (Q4.1 goals, Q3.3 twisted-pair case)",
+                          needs=("scipy",), install="pip install -r requirements.txt"),
     "notebooks": Command("kit.notebooks", "main",
                          "build the student notebooks, the answer key and the nbgrader source from solutions/",
                          needs=("nbformat",), install="pip install nbformat"),

@@ -66,6 +66,7 @@ dependencies = {{ file = ["requirements.txt"] }}
 
 [tool.setuptools.package-data]
 handin = ["pdf_assets/*", "pdf_assets/*/*"]
+"starter.checks" = ["*.json"]
 """
 
 _GITIGNORE = "__pycache__/\n*.pyc\n.ipynb_checkpoints/\n*.egg-info/\nhw4.pdf\nhw4_code.zip\n"

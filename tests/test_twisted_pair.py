@@ -2,9 +2,11 @@
 
 Its rule (keep the candidates with every point in front of camera 1, then the smallest error)
 chose the right camera on ordinary data by chance: the twisted pair's error is within a fraction
-of a percent of the right one's.  The twisted-pair case (starter.checks.twisted_pair) makes it
-choose the twisted pair, deterministically, in the public check (public seed) and in the hidden
-test (the grader's seed of the draw), while correct findM2s of every style keep full marks.
+of a percent of the right one's.  The twisted-pair case (solutions.twisted_pair: it triangulates,
+so it is made on the grader's side) makes it choose the twisted pair, deterministically, in the
+public check (the public seed's case, committed as starter/checks/twisted_pair.json by
+``python -m kit check-data``) and in the hidden test (the grader's seed of the draw), while
+correct findM2s of every style keep full marks.
 """
 
 from __future__ import annotations
@@ -19,7 +21,9 @@ from core.geometry import IDENTITY_POSE, depths
 from judging import pose as jp
 from starter import camera2
 from starter.checks.pose import check_findM2
-from starter.checks.twisted_pair import MARGIN, TRIANGULATIONS, candidate_roles, twisted_pair_case
+from solutions.twisted_pair import MARGIN, TRIANGULATIONS, candidate_roles, twisted_pair_case
+from starter.checks._scenes import PUBLIC_SEED
+from starter.checks.twisted_pair import CASE_FILE, decode, public_case
 
 SECRETS = ("twisted-a", "twisted-b", "twisted-c")
 
@@ -135,6 +139,21 @@ def test_the_twisted_pair_is_named_and_the_candidate_behind_both_cameras_is_not(
 
 
 # ------------------------------------------------------------------------------ the public check
+
+def test_the_committed_public_case_is_a_fresh_computation_and_reads_back_exactly():
+    from kit.check_data import TWISTED_FILE, fresh
+
+    assert TWISTED_FILE == CASE_FILE
+    assert CASE_FILE.read_text(encoding="utf-8") == fresh(CASE_FILE.name)
+    made, read = twisted_pair_case(PUBLIC_SEED), public_case()
+    for a, b in [(made.pair.K1, read.pair.K1), (made.pair.K2, read.pair.K2), (made.pair.M2, read.pair.M2),
+                 (made.pair.X, read.pair.X), (made.pts1, read.pts1), (made.pts2, read.pts2),
+                 (made.twisted, read.twisted), (made.F, read.F)]:
+        assert np.array_equal(a, b)
+    assert made.margin == read.margin < MARGIN
+    assert candidate_roles(read.pair.M2)[0][:, :, candidate_roles(read.pair.M2)[2]].tolist() == read.twisted.tolist()
+    assert decode(CASE_FILE.read_text(encoding="utf-8")).pts1.shape == (12, 2)
+
 
 def test_the_public_check_fails_depth_in_camera_1_only_and_names_it():
     report = check_findM2(_findM2(_reference_triangulate(), camera1_only), verbose=False)

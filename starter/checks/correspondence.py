@@ -20,7 +20,7 @@ from .report import CheckReport, Outcome, call
 __all__ = ["MatchCase", "check_compute3D_pts", "check_epipolarCorrespondence"]
 
 # The generated pair's easy points and the goals several correct matcher styles set on them: the
-# styles are answers to Q4.1 and do not ship, so ``python -m kit matching-goals`` wrote them here.
+# styles are answers to Q4.1 and do not ship, so ``python -m kit check-data`` wrote them here.
 GOALS_FILE = Path(__file__).with_name("matching_goals.json")
 _CALL = "compute3D_pts(im1, im2, F, x1, y1, C1, C2)"
 

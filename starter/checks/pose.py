@@ -6,9 +6,9 @@ from core.geometry import IDENTITY_POSE
 from judging import pose as jp
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
-from ._scenes import NO_DEFAULT_DATA, PUBLIC_SEED, NoisyPair, triangulation_goal, two_view
+from ._scenes import NO_DEFAULT_DATA, NoisyPair, triangulation_goal, two_view
 from .report import CheckReport, call
-from .twisted_pair import TwistedPairCase, twisted_pair_case
+from .twisted_pair import TwistedPairCase, public_case
 
 __all__ = ["check_findM2"]
 
@@ -42,8 +42,8 @@ def check_findM2(findM2, *, scene: NoisyPair | None = None, F=None, right=None, 
     scene : the pair to check on (default: the public generated pair, K1 != K2).
     F, right : with ``scene``: the F to give (default the pair's true F, exact matches) with the
         scene's noisy matches, and the right camera for it (default the true pose).
-    twisted : the twisted-pair case (starter.checks.twisted_pair; default: the public seed's when
-        ``scene`` is None, none otherwise): matches near the epipoles on which a depth test of
+    twisted : the twisted-pair case (starter.checks.twisted_pair; default: the public seed's,
+        read from starter/checks/twisted_pair.json, when ``scene`` is None, none otherwise): matches near the epipoles on which a depth test of
         camera 1 only picks the twisted pair by its smaller error; the camera only is judged.
     root : accepted like every check's; the default data are not used (they have no true pose).
     verbose : print the report.
@@ -68,7 +68,7 @@ def check_findM2(findM2, *, scene: NoisyPair | None = None, F=None, right=None, 
             _judge(report, out.value, pair.K1, pair.K2, p1, p2, pair.M2 if right is None else right, "noisy")
 
     if twisted is None and scene is None:
-        twisted = twisted_pair_case(PUBLIC_SEED)
+        twisted = public_case()
     if twisted is not None:
         tp = twisted.pair
         out = call(findM2, tp.F.copy(), twisted.pts1.copy(), twisted.pts2.copy(), tp.K1.copy(), tp.K2.copy())

@@ -12,7 +12,6 @@ import numpy as np
 
 from core.geometry import fundamental_from_pose
 from judging.pose import pose_gap
-from starter.checks.twisted_pair import twisted_pair_case
 
 from ..scenes import Scenes
 from .base import reference_F
@@ -49,8 +48,9 @@ def prepare_pose(scenes: Scenes) -> Pose:
     noisy matches; the right candidate is the one nearest the true pose (the reference's choice on
     the official data, which has no truth).  Where the reference's findM2 would not choose the
     camera nearest the truth from the reference's F, the scene's true F is given instead.  Last, the
-    twisted-pair case of this draw (``starter.checks.twisted_pair``), judged on the camera only."""
+    twisted-pair case of this draw (``solutions.twisted_pair``), judged on the camera only."""
     from solutions import essentialMatrix, findM2
+    from solutions.twisted_pair import twisted_pair_case
     from starter import camera2
 
     tv = scenes.two_view
@@ -68,7 +68,7 @@ def prepare_pose(scenes: Scenes) -> Pose:
         else:
             right = findM2(F, tc.pts1, tc.pts2, tc.K1, tc.K2)[0]
         cases.append(PoseCase(tc.label, F, tc.pts1, tc.pts2, tc.K1, tc.K2, right))
-    # Matches on which depth tested in camera 1 only picks the twisted pair (starter.checks.twisted_pair,
+    # Matches on which depth tested in camera 1 only picks the twisted pair (solutions.twisted_pair,
     # as the public check but from this draw's seed); its linear triangulations are far from optimal
     # by construction, so only the camera is judged there.
     tw = twisted_pair_case(scenes.seed("pose-twisted-pair"))
