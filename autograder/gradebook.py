@@ -7,14 +7,13 @@ folder was graded (configuration, a development secret, isolation levels, failur
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from core.text import points, write_atomic
+from core.untrusted import csv_text, for_markdown
 
 from .results import autograded_question_ids, csv_header
 
@@ -44,13 +43,11 @@ class BatchRecord:
 def write_grades_csv(path: Path, records: Sequence) -> Path:
     """``student_id, total, <one column per autograded question>``, one line per record (atomic)."""
     ids = autograded_question_ids()
-    buf = io.StringIO(newline="")
-    writer = csv.writer(buf)
-    writer.writerow(csv_header(ids))
+    rows = [csv_header(ids)]
     for r in records:
         scores = [0.0 if r.failure else float(r.scores.get(q, 0.0)) for q in ids]
-        writer.writerow([r.name, points(0.0 if r.failure else r.score)] + [points(s) for s in scores])
-    return write_atomic(path, buf.getvalue())
+        rows.append([r.name, points(0.0 if r.failure else r.score)] + [points(s) for s in scores])
+    return write_atomic(path, csv_text(rows))
 
 
 def read_state(folder: Path) -> dict | None:
@@ -117,7 +114,9 @@ def write_summary(path: Path, records: Sequence, configuration: dict, *, cancell
         f"- isolation: {', '.join(levels) or 'none ran'}",
     ]
     if failed:
-        lines += ["", "## Could not be graded", ""] + [f"- {r.name}: {r.failure}" for r in failed]
+        lines += ["", "## Could not be graded", ""] + [f"- {for_markdown(r.name, newlines=False)}: "
+                                                        f"{for_markdown(r.failure)}" for r in failed]
     if cancelled:
-        lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {n}" for n in cancelled]
+        lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {for_markdown(n, newlines=False)}"
+                                                                       for n in cancelled]
     return write_atomic(path, "\n".join(lines) + "\n")
