@@ -13,12 +13,14 @@ from the model through one function each:
 - ``csv_header()`` / ``SubmissionResult.csv_row()``: one gradebook line per student.
 
 Feedback text passes through ``clean_feedback``, which removes Python tracebacks and bounds the
-length: what a student reads never shows grader frames.  The model keeps plain text, which may
-quote the student (an exception's message, a file's name); every writer here passes it through
-``core.untrusted`` for its destination (Markdown for feedback.md and results.json's outputs, a
-CSV cell for the gradebook), so none of it becomes markup, a formula or a terminal escape.  Hidden inputs must not be put in
+length: what a student reads never shows grader frames.  Hidden inputs must not be put in
 feedback by the checks in the first place; checks marked ``visibility="hidden"`` are summarised
 without their names or text in the student's report.
+
+The model keeps plain text, which may quote the student (an exception's message, a file's name);
+every writer here passes it through ``core.untrusted`` for its destination (Markdown for
+feedback.md and results.json's outputs, a CSV cell for the gradebook), so none of it becomes
+markup, a formula or a terminal escape.
 """
 
 from __future__ import annotations
