@@ -161,8 +161,9 @@ def write_diff(folder: str | os.PathLike, changes: list[Change], *, old: Path, n
             cells = [c.student, c.question, "-" if c.old is None else points(c.old),
                      "-" if c.new is None else points(c.new), "-" if c.change is None else f"{c.change:+g}",
                      "<br>".join(for_markdown(w, newlines=False) for w in c.why) or "-"]
-            # The kit's <br> between reasons is its own markup; every text in a cell is escaped.
-            md.append("| " + " | ".join(x if k == 5 else for_markdown(x, newlines=False) for k, x in enumerate(cells))
+            # The student's name is escaped, and each reason (above); the question and the figures
+            # are the kit's ("-1" stays a number), and so is the <br> between reasons.
+            md.append("| " + " | ".join(for_markdown(x, newlines=False) if k == 0 else x for k, x in enumerate(cells))
                       + " |")
     else:
         md.append("No score changed.")
