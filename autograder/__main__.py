@@ -40,6 +40,7 @@ from pathlib import Path
 from core.commands import Command
 from core.commands import build_parser as _build_parser
 from core.commands import run
+from core.untrusted import for_terminal
 
 from .sandbox.model import LEVELS
 
@@ -64,12 +65,12 @@ def _batch_errors(run):
     try:
         return run()
     except ConfigurationMismatch as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {for_terminal(exc)}", file=sys.stderr)
         return 2
     except BatchInterrupted as exc:
         signal.signal(signal.SIGINT, lambda *_: os._exit(130))  # everything is recorded: another Ctrl-C just exits
         print(f"\ninterrupted: {len(exc.records)} submissions recorded, {len(exc.cancelled)} cancelled and not "
-              f"recorded ({', '.join(exc.cancelled) or 'none'}); run the same command again to resume",
+              f"recorded ({for_terminal(', '.join(exc.cancelled)) or 'none'}); run the same command again to resume",
               file=sys.stderr)
         # Exit now (clean-ups registered with atexit run; no interpreter shutdown a Ctrl-C could cut).
         sys.stdout.flush()
@@ -113,7 +114,7 @@ def _grade_run(args) -> int:
     print(f"{len(records)} submissions ({graded} graded now, {len(records) - graded} already done); "
           f"results in {Path(args.out) / '<name>'}, grades in {Path(args.out) / 'grades.csv'}")
     if failed:
-        print(f"could not be graded: {', '.join(failed)} (see their feedback.md and grading.json)")
+        print(f"could not be graded: {for_terminal(', '.join(failed))} (see their feedback.md and grading.json)")
     if config.is_dev:
         print("graded with the DEVELOPMENT secret: not for publishing")
     return 0
@@ -130,7 +131,7 @@ def _regrade_run(args, old, new, paths) -> int:
         report = regrade(old, new, paths, **_grade_options(args, _config(args)))
         moved = sorted({c.student for c in report["changes"]})
         print(f"regraded {len(report['records'])} submissions into {new}; {len(moved)} changed score"
-              + (f": {', '.join(moved)}" if moved else ""))
+              + (f": {for_terminal(', '.join(moved))}" if moved else ""))
         if report["configuration_changes"]:
             print("configuration changes: " + "; ".join(report["configuration_changes"]))
         print(f"diff: {report['files']['md']} (and .csv, .html); publish with: "
@@ -146,7 +147,7 @@ def _accept(args) -> int:
     try:
         history = accept(args.new, args.into)
     except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {for_terminal(exc)}", file=sys.stderr)
         return 2
     print(f"published the regrade of {args.new} into {args.into}; the earlier results are in {history}")
     return 0

@@ -48,6 +48,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from core.text import write_atomic
+from core.untrusted import for_terminal
 
 from . import grade
 from .config import GradingConfig, configuration, configuration_changes, load_config, tests_fingerprint
@@ -91,13 +92,17 @@ def submission_name(path: Path) -> str:
 
 
 def submission_digest(path: Path) -> str:
-    """SHA-256 of a submission's content (a file's bytes, or a folder's relative paths and bytes)."""
+    """SHA-256 of a submission's content (a file's bytes, or a folder's relative paths and bytes).
+
+    A path is hashed as the bytes the file system holds (``os.fsencode``): a name that is not
+    UTF-8 is still a name, and the same bytes as before for one that is.
+    """
     h = hashlib.sha256()
     path = Path(path)
     if path.is_dir():
         for p in sorted(path.rglob("*")):
             if p.is_file() and not p.is_symlink():
-                h.update(p.relative_to(path).as_posix().encode() + b"\0")
+                h.update(os.fsencode(p.relative_to(path).as_posix()) + b"\0")
                 h.update(hashlib.sha256(p.read_bytes()).digest())
     elif path.is_file():
         with open(path, "rb") as fh:
@@ -497,10 +502,19 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         if on_done is not None:
             on_done(rec)
         bar.update(1)
-        bar.set_postfix_str(f"{rec.name}: {rec.score:g}" + (" (resumed)" if rec.skipped else ""))
+        bar.set_postfix_str(for_terminal(f"{rec.name}: {rec.score:g}" + (" (resumed)" if rec.skipped else ""), 80))
 
     for k, (path, name) in enumerate(zip(paths, names)):
-        digest = submission_digest(path)
+        try:
+            digest = submission_digest(path)
+        except OSError as exc:  # one unreadable submission is its student's failure, never the batch's
+            result = SubmissionResult.failed(
+                f"the submission could not be read ({type(exc).__name__}: {exc.strerror or exc}); the course "
+                "staff will look at it", student_id=name)
+            rec = finish(result, path, name, "unreadable", {"log": [traceback.format_exc()]}, time.monotonic())
+            if rec is not None:
+                done(k, rec)
+            continue
         deaths = journal.deaths(name, digest, key)
         folder = out / name
         if deaths >= DEATHS_TO_FAIL and name not in forced:

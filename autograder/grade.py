@@ -187,11 +187,13 @@ def _stop_workers() -> None:
 
 def pytest_command(submission: Path, *, extra_tests: Sequence[Path] = (), options: Sequence[str] = ()) -> list[str]:
     """pytest's arguments (after ``python -m pytest``) that grade ``submission`` with the hidden checks
-    (and ``extra_tests``)."""
+    (and ``extra_tests``).  Values a student names (the submission, its gradebook name) are joined
+    to their option with "=": a separate "-1+1" would be read as an option, "@SUM" as a file of
+    arguments (pytest's @file)."""
     return ["-q", "-W", "ignore::pytest.PytestAssertRewriteWarning", "-p", "no:cacheprovider", "-p", "autograder.hidden.plugin",
             "-c", str(HIDDEN_DIR / "pytest.ini"), "--rootdir", str(HIDDEN_DIR), "--no-header", "-o",
             "console_output_style=classic", str(HIDDEN_DIR), *[str(p) for p in extra_tests],
-            "--submission", str(submission), *options]
+            f"--submission={submission}", *options]
 
 
 def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs: HiddenInputs,
@@ -240,7 +242,7 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
             backstop = max(min(backstop, deadline - time.monotonic() - 5.0), budget)
         argv = pytest_command(path, extra_tests=[Path(p).resolve() for p in extra_tests], options=[
             "--grading-config", str(config_file), "--hidden-cache", str(cache), "--sandbox-spec", str(spec),
-            "--results", str(results), "--student-id", student_id, "--budget", repr(budget)])
+            "--results", str(results), f"--student-id={student_id}", "--budget", repr(budget)])
         log = work / "pytest.log"
         worker = _take_worker()
         code = worker.run(argv, log, backstop)

@@ -7,14 +7,13 @@ folder was graded (configuration, a development secret, isolation levels, failur
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from core.text import points, write_atomic
+from core.untrusted import csv_text, for_markdown
 
 from .results import autograded_question_ids, csv_header
 
@@ -48,13 +47,11 @@ class BatchRecord:
 def write_grades_csv(path: Path, records: Sequence) -> Path:
     """``student_id, total, <one column per autograded question>``, one line per record (atomic)."""
     ids = autograded_question_ids()
-    buf = io.StringIO(newline="")
-    writer = csv.writer(buf)
-    writer.writerow(csv_header(ids))
+    rows = [csv_header(ids)]
     for r in records:
         scores = [0.0 if r.failure else float(r.scores.get(q, 0.0)) for q in ids]
-        writer.writerow([r.name, points(0.0 if r.failure else r.score)] + [points(s) for s in scores])
-    return write_atomic(path, buf.getvalue())
+        rows.append([r.name, points(0.0 if r.failure else r.score)] + [points(s) for s in scores])
+    return write_atomic(path, csv_text(rows))
 
 
 def read_state(folder: Path) -> dict | None:
@@ -133,18 +130,22 @@ def write_summary(path: Path, records: Sequence, configuration: dict, *, cancell
         f"- isolation: {', '.join(levels) or 'none ran'}",
     ]
     if failed:
-        lines += ["", "## Could not be graded", ""] + [f"- {r.name}: {r.failure}" for r in failed]
+        lines += ["", "## Could not be graded", ""] + [f"- {for_markdown(r.name, newlines=False)}: "
+                                                        f"{for_markdown(r.failure)}" for r in failed]
     quota = [r for r in records if r.over_quota]
     if quota:
         lines += ["", "## Past the sandbox's disk quota (those calls failed)", ""]
-        lines += [f"- {r.name}: {line}" for r in quota for line in r.over_quota[:5]]
+        lines += [f"- {for_markdown(r.name, newlines=False)}: {for_markdown(line)}"
+                  for r in quota for line in r.over_quota[:5]]
     left = [r for r in records if r.removed[0]]
     if left:
         lines += ["", "## Left in the shared temporary folders (/tmp, /var/tmp, /dev/shm, /run/lock), removed by the "
                   "grader", ""]
-        lines += [f"- {r.name}: {r.removed[0]} files and folders, {r.removed[1] / 2**20:.1f} MB" for r in left]
+        lines += [f"- {for_markdown(r.name, newlines=False)}: {r.removed[0]} files and folders, "
+                  f"{r.removed[1] / 2**20:.1f} MB" for r in left]
     if cancelled:
-        lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {n}" for n in cancelled]
+        lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {for_markdown(n, newlines=False)}"
+                                                                       for n in cancelled]
     if library_calls is not None:
         lines += ["", "## Library calls to look at", ""] + library_calls_markdown(library_calls)
     return write_atomic(path, "\n".join(lines) + "\n")
@@ -163,9 +164,9 @@ def library_calls_markdown(found: dict) -> list[str]:
         for c in with_calls[student]:
             inside = f" in {markdown_code(c.function)}" if c.function else ""
             does = f" ({c.replaces})" if c.replaces else ""
-            lines.append(f"- {student}: {markdown_code(c.name)}{does}, {c.kind}{inside}: {markdown_code(c.code)} "
-                         f"({c.where})")
+            lines.append(f"- {for_markdown(student, newlines=False)}: {markdown_code(c.name)}{does}, {c.kind}"
+                         f"{inside}: {markdown_code(c.code)} ({for_markdown(c.where, newlines=False)})")
     unread = sorted(s for s, (_, notes) in found.items() if notes)
     if unread:  # the reasons are in each note; here, only whose list may be incomplete
-        lines += ["", f"Code not read in full (a cell that does not parse, a file gone): {', '.join(unread)}."]
+        lines += ["", f"Code not read in full (a cell that does not parse, a file gone): {for_markdown(', '.join(unread), newlines=False)}."]
     return lines

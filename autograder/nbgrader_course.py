@@ -63,6 +63,7 @@ from typing import TYPE_CHECKING
 from core.manifest import NOTEBOOKS, QUESTIONS, Question
 
 from core.shipping import SANDBOX_PACKAGES
+from core.untrusted import for_terminal
 
 from .gradescope import KIT_ROOT, _package_files, data_files, hideable
 
@@ -232,7 +233,9 @@ def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict)
         for cell in nb.cells:
             q = _question_of_grade_id(_nbgrader(cell).get("grade_id", ""))
             if q is not None and cell.cell_type == "code":
-                cell.outputs = [nbformat.v4.new_output("stream", name="stdout", text=verdicts[q.id][1] + "\n")]
+                # A stream output is shown as a terminal would (nbconvert turns ANSI escapes into markup).
+                text = for_terminal(verdicts[q.id][1])
+                cell.outputs = [nbformat.v4.new_output("stream", name="stdout", text=text + "\n")]
                 changed = True
         if changed:
             nbformat.write(nb, path)
@@ -611,7 +614,7 @@ def _grade_cli(args) -> int:
 
     def report(student, result):
         why = f" (not graded: {result.failure})" if result.failure else ""
-        print(f"{student}: {result.score:g} points (base {result.max_score:g}, extra credit on top){why}")
+        print(for_terminal(f"{student}: {result.score:g} points (base {result.max_score:g}, extra credit on top){why}"))
 
     results = grade_course(args.course, assignment=args.assignment, students=args.student, config=config,
                            isolation=args.isolation, progress=None if args.quiet else report)

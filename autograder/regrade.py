@@ -11,13 +11,13 @@ one line per student and question whose score changed (``total`` included), old 
 the checks whose score changed (the why) and how the two configurations differ.  ``OLD_DIR`` is
 not touched.  ``accept`` moves ``OLD_DIR``'s results to ``OLD_DIR/.history/<time>/`` and copies
 ``NEW_DIR``'s in their place (grades.csv included).
+
+The diff is the staff's alone (files 0600): it names students and scores.  Names and the reasons
+of failures come from submissions, so every cell, line and table passes ``core.untrusted``.
 """
 
 from __future__ import annotations
 
-import csv
-import html
-import io
 import json
 import os
 import shutil
@@ -25,7 +25,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.text import points, write_atomic
+from core.text import points, private_folder, write_atomic
+from core.untrusted import csv_text, for_html, for_markdown
 
 from .config import configuration_changes
 from .gradebook import read_state
@@ -35,6 +36,7 @@ __all__ = ["MARKER", "Change", "accept", "diff_folders", "regrade", "write_diff"
 MARKER = "regrade.json"
 _TOL = 1e-6
 _RESULT_FILES = ("grades.csv", "summary.md", "configuration.json")
+_PRIVATE = 0o600
 
 
 @dataclass(frozen=True)
@@ -143,42 +145,42 @@ def write_diff(folder: str | os.PathLike, changes: list[Change], *, old: Path, n
                config_changes: list[str], students: int) -> dict[str, Path]:
     """``regrade_diff.csv``, ``.md`` and ``.html`` in ``folder``; returns their paths by suffix."""
     folder = Path(folder)
-    buf = io.StringIO(newline="")
-    w = csv.writer(buf)
-    w.writerow(["student_id", "question", "old", "new", "change", "why", "configuration"])
-    for c in changes:
-        w.writerow([c.student, c.question, "" if c.old is None else points(c.old),
-                    "" if c.new is None else points(c.new), "" if c.change is None else points(c.change),
-                    "; ".join(c.why), "; ".join(c.configuration)])
+    table = [["student_id", "question", "old", "new", "change", "why", "configuration"]] + [
+        [c.student, c.question, "" if c.old is None else points(c.old), "" if c.new is None else points(c.new),
+         "" if c.change is None else points(c.change), "; ".join(c.why), "; ".join(c.configuration)]
+        for c in changes]
     moved = sorted({c.student for c in changes})
     head = [f"Published grades: {old}", f"Regrade: {new}",
             f"{len(moved)} of {students} students changed score" + (f": {', '.join(moved)}" if moved else ""),
             "Configuration changes: " + ("; ".join(config_changes) if config_changes else "none")]
-    md = ["# Regrade diff", ""] + [f"- {line}" for line in head] + [""]
+    md = ["# Regrade diff", ""] + [f"- {for_markdown(line, newlines=False)}" for line in head] + [""]
     md += [f"Nothing is published until `python -m autograder accept {new} --into {old}`.", ""]
     if changes:
         md += ["| Student | Question | Old | New | Change | Why |", "|---|---|---|---|---|---|"]
         for c in changes:
             cells = [c.student, c.question, "-" if c.old is None else points(c.old),
                      "-" if c.new is None else points(c.new), "-" if c.change is None else f"{c.change:+g}",
-                     "<br>".join(c.why) or "-"]
-            md.append("| " + " | ".join(x.replace("|", "\\|") for x in cells) + " |")
+                     "<br>".join(for_markdown(w, newlines=False) for w in c.why) or "-"]
+            # The student's name is escaped, and each reason (above); the question and the figures
+            # are the kit's ("-1" stays a number), and so is the <br> between reasons.
+            md.append("| " + " | ".join(for_markdown(x, newlines=False) if k == 0 else x for k, x in enumerate(cells))
+                      + " |")
     else:
         md.append("No score changed.")
     rows = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(str(x))}</td>" for x in (
+        "<tr>" + "".join(f"<td>{for_html(x)}</td>" for x in (
             c.student, c.question, "-" if c.old is None else points(c.old), "-" if c.new is None else points(c.new),
-            "-" if c.change is None else f"{c.change:+g}")) + "<td>" + "<br>".join(html.escape(w) for w in c.why)
+            "-" if c.change is None else f"{c.change:+g}")) + "<td>" + "<br>".join(for_html(w) for w in c.why)
         + "</td></tr>\n" for c in changes)
     page = ("<!doctype html><html><head><meta charset='utf-8'><title>Regrade diff</title><style>"
             "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"
             "td,th{border:1px solid #ccc;padding:4px 8px;vertical-align:top}</style></head><body>"
-            "<h1>Regrade diff</h1><ul>" + "".join(f"<li>{html.escape(line)}</li>" for line in head) + "</ul>"
+            "<h1>Regrade diff</h1><ul>" + "".join(f"<li>{for_html(line)}</li>" for line in head) + "</ul>"
             + ("<table><tr><th>Student</th><th>Question</th><th>Old</th><th>New</th><th>Change</th><th>Why</th></tr>\n"
                + rows + "</table>" if changes else "<p>No score changed.</p>") + "</body></html>\n")
-    return {"csv": write_atomic(folder / "regrade_diff.csv", buf.getvalue()),
-            "md": write_atomic(folder / "regrade_diff.md", "\n".join(md) + "\n"),
-            "html": write_atomic(folder / "regrade_diff.html", page)}
+    return {"csv": write_atomic(folder / "regrade_diff.csv", csv_text(table), mode=_PRIVATE),
+            "md": write_atomic(folder / "regrade_diff.md", "\n".join(md) + "\n", mode=_PRIVATE),
+            "html": write_atomic(folder / "regrade_diff.html", page, mode=_PRIVATE)}
 
 
 def regrade(old: str | os.PathLike, new: str | os.PathLike, paths=None, **grade_options) -> dict:
@@ -203,13 +205,15 @@ def regrade(old: str | os.PathLike, new: str | os.PathLike, paths=None, **grade_
         missing = [str(p) for p in paths if not p.exists()]
         if missing:
             raise FileNotFoundError(f"paths: the recorded submissions are gone: {missing[:5]}; give them explicitly")
+    private_folder(new)  # results and scores of the class: private also when called from Python
     records = grade_batch(paths, new, **grade_options)
     changes = diff_folders(old, new)
     config_changes = configuration_changes(folder_configuration(old), folder_configuration(new))
     files = write_diff(new, changes, old=old, new=new, config_changes=config_changes,
                        students=len(set(before) | {r.name for r in records}))
     write_atomic(new / MARKER, json.dumps({"old": str(old), "accepted": None,
-                                           "changed": sorted({c.student for c in changes})}, indent=2))
+                                           "changed": sorted({c.student for c in changes})}, indent=2),
+                 mode=_PRIVATE)
     return {"records": records, "changes": changes, "files": files, "configuration_changes": config_changes}
 
 
@@ -245,7 +249,7 @@ def accept(new: str | os.PathLike, into: str | os.PathLike) -> Path:
             if (new / name).exists():
                 shutil.copy2(new / name, into / name)
         marker["accepted"] = time.strftime("%Y-%m-%d %H:%M:%S")
-        write_atomic(new / MARKER, json.dumps(marker, indent=2))
+        write_atomic(new / MARKER, json.dumps(marker, indent=2), mode=_PRIVATE)
     finally:
         os.close(lock_into)
         os.close(lock_new)

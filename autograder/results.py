@@ -16,6 +16,11 @@ Feedback text passes through ``clean_feedback``, which removes Python tracebacks
 length: what a student reads never shows grader frames.  Hidden inputs must not be put in
 feedback by the checks in the first place; checks marked ``visibility="hidden"`` are summarised
 without their names or text in the student's report.
+
+The model keeps plain text, which may quote the student (an exception's message, a file's name);
+every writer here passes it through ``core.untrusted`` for its destination (Markdown for
+feedback.md and results.json's outputs, a CSV cell for the gradebook), so none of it becomes
+markup, a formula or a terminal escape.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from pathlib import Path
 
 from core.manifest import QUESTIONS, question
 from core.text import points
+from core.untrusted import for_csv_cell, for_markdown, visible
 
 __all__ = [
     "VISIBILITIES",
@@ -254,9 +260,9 @@ class SubmissionResult:
         if layout is None:
             for q in self.questions:
                 for k, t in enumerate(q.tests, start=1):
-                    text = "\n".join(list(q.notes if k == 1 else ()) + ([t.feedback] if t.feedback else []))
+                    text = _check_output(q, k, t)
                     out["tests"].append({
-                        "name": f"{q.id} {t.name}" + (" (extra credit)" if q.extra_credit else ""),
+                        "name": f"{q.id} {visible(t.name, newlines=False)}" + (" (extra credit)" if q.extra_credit else ""),
                         "number": f"{q.id[1:]}.{k}",
                         "score": round(t.score, 6),
                         "max_score": round(t.max_score, 6),
@@ -278,7 +284,7 @@ class SubmissionResult:
                     "hidden": "to the course staff only"}[layout["checks"]]
             lines.append(f"The feedback of each check is shown {when}.")
         if self.notes:
-            lines += ["", "Notes on your files:"] + [f"- {n}" for n in self.notes]
+            lines += ["", "Notes on your files:"] + [f"- {for_markdown(n)}" for n in self.notes]
         out["output"] = "\n".join(lines)
         for q in self.questions:
             passed = sum(1 for t in q.tests if t.passed)
@@ -293,10 +299,10 @@ class SubmissionResult:
             })
         for q in self.questions:
             for k, t in enumerate(q.tests, start=1):
-                text = "\n".join(list(q.notes if k == 1 else ()) + ([t.feedback] if t.feedback else []))
+                text = _check_output(q, k, t)
                 shown = max(layout["checks"], t.visibility, key=order.__getitem__)
                 out["tests"].append({
-                    "name": f"{q.id} check: {t.name} ({points(t.score)} / {points(t.max_score)})",
+                    "name": f"{q.id} check: {visible(t.name, newlines=False)} ({points(t.score)} / {points(t.max_score)})",
                     "number": f"{q.id[1:]}.{k}",
                     "status": "passed" if t.passed else "failed",
                     "output": text,
@@ -323,13 +329,13 @@ class SubmissionResult:
     def _summary_markdown(self) -> str:
         if self.failure:
             return (f"**The autograder could not grade this submission**, so it scores 0 for now.\n\n"
-                    f"Reason: {self.failure}\n\nPlease check your files and resubmit, or contact the course staff.")
+                    f"Reason: {for_markdown(self.failure)}\n\nPlease check your files and resubmit, or contact the course staff.")
         lines = [f"**Autograded total: {points(self.score)} / {points(self.max_score)}**"]
         if any(q.extra_credit for q in self.questions):
             extra = sum(q.score for q in self.questions if q.extra_credit)
             lines[0] += f" (including {points(extra)} extra credit)"
         if self.notes:
-            lines += ["", "Notes on your files:"] + [f"- {n}" for n in self.notes]
+            lines += ["", "Notes on your files:"] + [f"- {for_markdown(n)}" for n in self.notes]
         return "\n".join(lines)
 
     def feedback_markdown(self, *, audience: str = "student") -> str:
@@ -337,12 +343,12 @@ class SubmissionResult:
         ``"staff"`` shows everything plus how the code was isolated."""
         if audience not in ("student", "staff"):
             raise ValueError(f"audience: expected 'student' or 'staff', got {audience!r}")
-        title = "# Autograder feedback" + (f" for {self.student_id}" if self.student_id else "")
+        title = "# Autograder feedback" + (f" for {_cell(self.student_id)}" if self.student_id else "")
         parts = [title, "", self._summary_markdown()]
         for q in ([] if self.failure else self.questions):
             head = f"## {q.id} {q.title}: {points(q.score)} / {points(q.max_score)}"
             parts += ["", head + (" (extra credit)" if q.extra_credit else "")]
-            parts += [f"- {n}" for n in q.notes]
+            parts += [f"- {for_markdown(n)}" for n in q.notes]
             shown = [t for t in q.tests if audience == "staff" or t.visibility != "hidden"]
             hidden = [t for t in q.tests if t not in shown]
             if shown:
@@ -354,14 +360,14 @@ class SubmissionResult:
                 parts += ["", f"{len(hidden)} hidden check(s): {hidden_score}"]
             details = [t for t in shown if t.feedback]
             if details:
-                parts += [""] + [f"- **{_cell(t.name)}**: {t.feedback}" for t in details]
+                parts += [""] + [f"- **{_cell(t.name)}**: {for_markdown(t.feedback)}" for t in details]
         if audience == "staff" and self.isolation:
             iso = self.isolation
             network = "cut" if iso.get("network_isolated") else "NOT cut"
             hidden_count = len(iso.get("hidden_paths") or ())
             line = f"Sandbox: {iso.get('level')}, uid {iso.get('uid')}, network {network}, {hidden_count} hidden paths."
             parts += ["", "---", line]
-            parts += [f"- {n}" for n in iso.get("notes") or ()]
+            parts += [f"- {for_markdown(n)}" for n in iso.get("notes") or ()]
         if audience == "staff" and self.configuration:
             c = self.configuration
             data = c.get("data") or {}
@@ -401,7 +407,7 @@ def write_csv(path: str | Path, results: Iterable[SubmissionResult],
         writer = csv.writer(fh)
         writer.writerow(csv_header(question_ids))
         for r in results:
-            writer.writerow(r.csv_row(question_ids))
+            writer.writerow([for_csv_cell(c) for c in r.csv_row(question_ids)])
     return path
 
 
@@ -416,4 +422,11 @@ def _public_configuration(record: dict | None) -> dict | None:
 
 
 def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
+    """A table cell or a title: one line of escaped Markdown (its "|" escaped too)."""
+    return for_markdown(text, newlines=False)
+
+
+def _check_output(q: QuestionResult, k: int, t: TestResult) -> str:
+    """A check's output in results.json (Markdown): the question's notes with its first check, then
+    its feedback."""
+    return "\n".join(for_markdown(x) for x in [*(q.notes if k == 1 else ()), t.feedback] if x)

@@ -409,10 +409,11 @@ def load_submission(path: str | Path, *, stems: Sequence[str] = NOTEBOOKS,
         leave its folder (an absolute path or "..": a zip-slip attempt), or when it is too large.
     """
     path = Path(path)
+    links: list[str] = []  # candidate files that are symbolic links: skipped, and the student is told
     if path.is_dir() and not path.is_symlink():
-        files = _folder_files(path, limits)
+        files = _folder_files(path, limits, links)
     elif path.is_file() and zipfile.is_zipfile(path):
-        files = _zip_files(path, limits)
+        files = _zip_files(path, limits, links)
     else:
         raise SubmissionError(f"path: expected a folder or a .zip archive, got {str(path)!r}")
 
@@ -437,10 +438,15 @@ def load_submission(path: str | Path, *, stems: Sequence[str] = NOTEBOOKS,
             parsed[name] = parse_python(data, stem=stem, filename=name)
         else:
             parsed[name] = parse_notebook(data, stem=stem, filename=name)
-    return _assemble(path.name, parsed, stems)
+    ignored = tuple(Note("not_used", name, detail=_LINK_SKIPPED) for name in links)
+    return _assemble(path.name, parsed, stems, ignored)
 
 
-def _assemble(name: str, files: dict[str, ParsedNotebook], stems: Sequence[str]) -> Submission:
+_LINK_SKIPPED = "a symbolic link: links are never followed, so its target was not read"
+
+
+def _assemble(name: str, files: dict[str, ParsedNotebook], stems: Sequence[str],
+              ignored: tuple[Note, ...] = ()) -> Submission:
     """The Submission of the parsed ``files`` (in reading order): modules, choices, units, notes."""
     layout: list[Note] = []
     modules, module_files = _modules(files, layout)
@@ -489,7 +495,7 @@ def _assemble(name: str, files: dict[str, ParsedNotebook], stems: Sequence[str])
             layout.append(Note("given_helper", importers[0], name=helper))
     layout += _other_years(files)
     job = _job(files, modules, module_files, functions)
-    return Submission(name, notebooks, missing, (), dict(files), modules, functions, tuple(layout), job)
+    return Submission(name, notebooks, missing, ignored, dict(files), modules, functions, tuple(layout), job)
 
 
 def _other_years(files: dict[str, ParsedNotebook]) -> list[Note]:
@@ -601,17 +607,21 @@ del _hw4_link
 """
 
 
+def _is_ignored(name: str) -> bool:
+    """Hidden entries, macOS's and Python's leftovers: never read, never mentioned."""
+    return any(p.startswith(".") or p == "__MACOSX" or p == "__pycache__" for p in PurePosixPath(name).parts)
+
+
 def _is_candidate(name: str) -> bool:
-    parts = PurePosixPath(name).parts
-    if any(p.startswith(".") or p == "__MACOSX" or p == "__pycache__" for p in parts):
-        return False
-    return name.lower().endswith((".ipynb", ".py"))
+    return not _is_ignored(name) and name.lower().endswith((".ipynb", ".py"))
 
 
-def _folder_files(root: Path, limits: SizeLimits) -> list[tuple[str, bytes]]:
+def _folder_files(root: Path, limits: SizeLimits, links: list[str]) -> list[tuple[str, bytes]]:
     out, total, count = [], 0, 0
     for folder, dirs, names in os.walk(root, followlinks=False):
         dirs.sort()
+        links += [rel for d in dirs if Path(folder, d).is_symlink()  # os.walk lists a linked folder here
+                  and not _is_ignored(rel := Path(folder, d).relative_to(root).as_posix())]
         for name in sorted(names):
             count += 1
             if count > limits.max_entries:
@@ -619,6 +629,8 @@ def _folder_files(root: Path, limits: SizeLimits) -> list[tuple[str, bytes]]:
             p = Path(folder, name)
             rel = p.relative_to(root).as_posix()
             st = p.lstat()  # lstat: a symbolic link is skipped, never followed
+            if stat.S_ISLNK(st.st_mode) and not _is_ignored(rel):
+                links.append(rel)
             if not stat.S_ISREG(st.st_mode) or not _is_candidate(rel):
                 continue
             total += st.st_size
@@ -631,7 +643,7 @@ def _folder_files(root: Path, limits: SizeLimits) -> list[tuple[str, bytes]]:
 _TOO_BIG = b"\x00too-big"  # stands for a file that was not read because of its size
 
 
-def _zip_files(path: Path, limits: SizeLimits) -> list[tuple[str, bytes]]:
+def _zip_files(path: Path, limits: SizeLimits, links: list[str]) -> list[tuple[str, bytes]]:
     out = []
     try:
         with zipfile.ZipFile(path) as zf:
@@ -647,6 +659,8 @@ def _zip_files(path: Path, limits: SizeLimits) -> list[tuple[str, bytes]]:
             for info in infos:
                 name = info.filename.replace("\\", "/")
                 is_link = stat.S_ISLNK(info.external_attr >> 16)
+                if is_link and not _is_ignored(name):
+                    links.append(name)
                 if info.is_dir() or is_link or not _is_candidate(name):
                     continue
                 if info.flag_bits & 0x1:

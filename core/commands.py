@@ -16,6 +16,8 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from .untrusted import for_terminal
+
 __all__ = ["Command", "missing_packages", "build_parser", "run"]
 
 
@@ -107,5 +109,6 @@ def run(prog: str, description: str, table: Mapping[str, Command], argv: Sequenc
     try:
         return args.func(args)
     except (FileNotFoundError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        # The message may quote a submission's name: shown, never acted on by the terminal.
+        print(f"error: {for_terminal(exc)}", file=sys.stderr)
         return 2

@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["fmt", "points", "write_atomic"]
+__all__ = ["fmt", "points", "private_folder", "write_atomic"]
 
 
 def fmt(x, digits: int = 3) -> str:
@@ -35,8 +35,9 @@ def points(x: float) -> str:
     return f"{round(float(x), 4):g}"
 
 
-def write_atomic(path: str | os.PathLike, text: str, *, mode: int = 0o644) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename.
+def write_atomic(path: str | os.PathLike, text: str | bytes, *, mode: int = 0o644) -> Path:
+    """Write ``text`` (str as UTF-8, or bytes) to ``path`` through a temporary file in the same
+    folder and a rename.
 
     A crash or a kill leaves either the old file or the new one, never a torn one.  ``mode`` is
     applied before the rename, so a private file is never readable by others, not even briefly.
@@ -44,7 +45,9 @@ def write_atomic(path: str | os.PathLike, text: str, *, mode: int = 0o644) -> Pa
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        with os.fdopen(fd, "wb") as fh:
+            if isinstance(text, str):
+                text = text.encode("utf-8")
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
@@ -53,4 +56,16 @@ def write_atomic(path: str | os.PathLike, text: str, *, mode: int = 0o644) -> Pa
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    return path
+
+
+def private_folder(path: str | os.PathLike) -> Path:
+    """``path`` as a folder only its owner can enter (0700), made with its parents if missing.
+
+    An existing folder is made private too: what the staff write there (every student's code or
+    scores) must not become readable to others because the folder was made by hand first.
+    """
+    path = Path(path)
+    path.mkdir(mode=0o700, parents=True, exist_ok=True)
+    os.chmod(path, 0o700)
     return path

@@ -36,6 +36,7 @@ from pathlib import Path
 import pytest
 
 from core.manifest import QUESTIONS, question
+from core.untrusted import for_terminal
 
 from .feedback import failure, notes, tidy
 
@@ -562,7 +563,7 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     tr = terminalreporter
     if result.failure:
         tr.section("hidden checks: not graded")
-        tr.write_line(result.failure)
+        tr.write_line(for_terminal(result.failure))
         return
     tr.section("hidden checks: points")
     for q in result.questions:
@@ -570,5 +571,5 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     tr.write_line(f"total  {result.score:7.2f} / {result.max_score:g}" + (" (+ extra credit)" if any(
         q.extra_credit for q in result.questions) else ""))
     for line in config._hw4["log"]:
-        tr.write_line("grader: " + line.splitlines()[0])
+        tr.write_line("grader: " + for_terminal(line.splitlines()[0]))
 

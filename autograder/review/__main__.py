@@ -2,8 +2,9 @@
 
 similar SUBMISSIONS... --out DIR [--top N] [--keep-starter]
     Look-alike code per homework function.  SUBMISSIONS are submission folders or zips, or class
-    folders holding them.  Writes DIR/similarity.csv, DIR/similarity.json, DIR/similarity.html;
-    the flagged pairs are also joined into groups (N copies of one solution: one group of N).
+    folders holding them.  Writes DIR/similarity.csv, DIR/similarity.json, DIR/similarity.html
+    (DIR 0700, its files 0600: they hold every student's code); the flagged pairs are also joined
+    into groups (N copies of one solution: one group of N).
 report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--per-question] [--config FILE]
     The class report of a graded folder (see autograder.review.report); the library calls it lists
     are the grader config's ``library_calls`` (default: autograder.review.library_calls).
@@ -12,11 +13,15 @@ report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 import time
 from pathlib import Path
+
+from core.text import private_folder, write_atomic
+from core.untrusted import csv_text, for_terminal
+
+_PRIVATE = 0o600
 
 __all__ = ["main", "expand_submissions", "run_similar"]
 
@@ -56,28 +61,27 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
     given = set() if keep_starter else given_hashes()
     comps = compare(subs, given)
     t2 = time.perf_counter()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = private_folder(out)
     ranked = {f: c.ranked(top) for f, c in comps.items()}
     found = groups(comps)
     group_of = {name: k for k, g in enumerate(found, start=1) for name in g.members}
-    with open(out / "similarity.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["function", "rank", "a", "b", "score", "jaccard", "containment", "shared", "look_at", "group"])
-        for f, pairs in ranked.items():
-            for p in pairs:
-                d = p.as_dict()
-                w.writerow([f, d["rank"], d["a"], d["b"], d["score"], d["jaccard"], d["containment"], d["shared"],
-                            "look at these" if p.flagged else "", group_of.get(p.a, "") if p.flagged else ""])
-    (out / "similarity.json").write_text(json.dumps({
+    rows = [["function", "rank", "a", "b", "score", "jaccard", "containment", "shared", "look_at", "group"]]
+    for f, pairs in ranked.items():
+        for p in pairs:
+            d = p.as_dict()
+            rows.append([f, d["rank"], d["a"], d["b"], d["score"], d["jaccard"], d["containment"], d["shared"],
+                         "look at these" if p.flagged else "", group_of.get(p.a, "") if p.flagged else ""])
+    write_atomic(out / "similarity.csv", csv_text(rows), mode=_PRIVATE)
+    write_atomic(out / "similarity.json", json.dumps({
         "submissions": names,
         "groups": [g.as_dict() for g in found],
         "functions": {f: {"compared": comps[f].names, "without_own_code": comps[f].skipped,
                           "pairs": [p.as_dict() for p in pairs]} for f, pairs in ranked.items()},
         "notes": {s.name: list(s.notes) for s in subs if s.notes},
-    }, indent=1))
+    }, indent=1), mode=_PRIVATE)
     sources = {(s.name, f): fs for s in subs for f, fs in s.functions.items()}
-    (out / "similarity.html").write_text(similarity_page(comps, sources, top=min(top, 10), groups=found))
+    write_atomic(out / "similarity.html", similarity_page(comps, sources, top=min(top, 10), groups=found),
+                 mode=_PRIVATE)
     return {"csv": out / "similarity.csv", "json": out / "similarity.json", "html": out / "similarity.html",
             "submissions": len(subs), "flagged": sum(int(np.sum(np.triu(c.score >= FLAG, 1))) for c in comps.values()),
             "groups": found,
@@ -108,9 +112,9 @@ def similar_command(args) -> int:
     print(f"{done['submissions']} submissions compared in {done['seconds_total']:.1f} s; "
           f"{done['flagged']} pair(s) to look at, in {len(done['groups'])} group(s).")
     for g in done["groups"]:
-        print(f"  {len(g.members)}: {', '.join(g.members)} ({', '.join(g.functions)})")
+        print(f"  {len(g.members)}: {for_terminal(', '.join(g.members))} ({', '.join(g.functions)})")
     for k in ("csv", "json", "html"):
-        print(f"  {done[k]}")
+        print(f"  {for_terminal(done[k])}")
     return 0
 
 
@@ -124,7 +128,7 @@ def report_command(args) -> int:
                            per_question=args.per_question, library_calls=load_config(args.config).library_names())
     print(f"class report written in {time.perf_counter() - t0:.1f} s:")
     for k in ("html", "tests", "mistakes", "grades", "canvas", "library_calls"):
-        print(f"  {written[k]}")
+        print(f"  {for_terminal(written[k])}")
     return 0
 
 
@@ -138,7 +142,7 @@ def main(argv=None) -> int:
     try:
         return similar_command(args) if args.command == "similar" else report_command(args)
     except (FileNotFoundError, ValueError) as exc:  # as core.commands does for python -m autograder
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {for_terminal(exc)}", file=sys.stderr)
         return 2
 
 

@@ -1,8 +1,11 @@
-"""Offline HTML pages of the review: the look-alike pairs side by side.  No script, no external file."""
+"""Offline HTML pages of the review: the look-alike pairs side by side.  No script, no external file.
+
+Names, origins and code are the students': every one passes ``core.untrusted.for_html``.
+"""
 
 from __future__ import annotations
 
-import html
+from core.untrusted import for_html
 
 from .similarity import FLAG, FunctionComparison, Group
 
@@ -22,7 +25,7 @@ details{margin:.6em 0}summary{cursor:pointer}
 def _code(source: str, hits: set[int]) -> str:
     rows = []
     for k, line in enumerate(source.split("\n"), start=1):
-        text = f'<span class="ln">{k:4d} </span>{html.escape(line)}'
+        text = f'<span class="ln">{k:4d} </span>{for_html(line)}'
         rows.append(f'<span class="hit">{text}</span>' if k in hits else text)
     return "<pre>" + "\n".join(rows) + "</pre>"
 
@@ -47,8 +50,8 @@ def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *
         parts.append("<p>Submissions linked by flagged pairs, in any function: read each group together.</p>"
                      "<table><tr><th>submissions</th><th>who</th><th>flagged in (highest score)</th></tr>")
         for g in groups:
-            where = ", ".join(f"<a href='#{html.escape(f)}'>{html.escape(f)}</a> {s:.2f}" for f, s in g.functions.items())
-            parts.append(f"<tr class='flag'><td>{len(g.members)}</td><td>{html.escape(', '.join(g.members))}</td>"
+            where = ", ".join(f"<a href='#{for_html(f)}'>{for_html(f)}</a> {s:.2f}" for f, s in g.functions.items())
+            parts.append(f"<tr class='flag'><td>{len(g.members)}</td><td>{for_html(', '.join(g.members))}</td>"
                          f"<td>{where}</td></tr>")
         parts.append("</table>")
     else:
@@ -56,9 +59,9 @@ def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *
     for function, comp in comparisons.items():
         pairs = comp.ranked(top, flagged_too=False)
         flagged = int(((comp.score >= FLAG).sum()) // 2) if len(comp.names) else 0
-        parts.append(f"<h2 id='{function}'>{html.escape(function)}</h2><p>{len(comp.names)} submissions compared, "
+        parts.append(f"<h2 id='{function}'>{for_html(function)}</h2><p>{len(comp.names)} submissions compared, "
                      f"{flagged} pair(s) to look at"
-                     + (f"; without their own code for it: {html.escape(', '.join(comp.skipped))}" if comp.skipped
+                     + (f"; without their own code for it: {for_html(', '.join(comp.skipped))}" if comp.skipped
                         else "") + (f"; the first {len(pairs)} shown here, the groups above and similarity.csv link every one"
                                     if flagged > len(pairs) else "") + ".</p>")
         if not pairs:
@@ -67,7 +70,7 @@ def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *
                      "<th>containment</th><th>shared</th><th></th></tr>")
         for p in pairs:
             cls = " class='flag'" if p.flagged else ""
-            parts.append(f"<tr{cls}><td>{p.rank}</td><td>{html.escape(p.a)}</td><td>{html.escape(p.b)}</td>"
+            parts.append(f"<tr{cls}><td>{p.rank}</td><td>{for_html(p.a)}</td><td>{for_html(p.b)}</td>"
                          f"<td>{p.score:.2f}</td><td>{p.jaccard:.2f}</td><td>{p.containment:.2f}</td>"
                          f"<td>{p.shared:.1f}</td><td><a href='#{function}-{p.rank}'>side by side</a></td></tr>")
         parts.append("</table>")
@@ -76,10 +79,10 @@ def similarity_page(comparisons: dict[str, FunctionComparison], sources: dict, *
             sa, sb = sources[(p.a, function)], sources[(p.b, function)]
             tag = " (look at these)" if p.flagged else ""
             parts.append(f"<details id='{function}-{p.rank}'{' open' if p.flagged else ''}><summary>#{p.rank} "
-                         f"{html.escape(p.a)} and {html.escape(p.b)}: score {p.score:.2f}{tag}</summary>"
+                         f"{for_html(p.a)} and {for_html(p.b)}: score {p.score:.2f}{tag}</summary>"
                          "<div class='side'>"
-                         f"<div><b>{html.escape(p.a)}</b> <small>{html.escape(sa.origin)}</small>{_code(sa.source, la)}</div>"
-                         f"<div><b>{html.escape(p.b)}</b> <small>{html.escape(sb.origin)}</small>{_code(sb.source, lb)}</div>"
+                         f"<div><b>{for_html(p.a)}</b> <small>{for_html(sa.origin)}</small>{_code(sa.source, la)}</div>"
+                         f"<div><b>{for_html(p.b)}</b> <small>{for_html(sb.origin)}</small>{_code(sb.source, lb)}</div>"
                          "</div></details>")
     parts.append("</body></html>")
     return "\n".join(parts)

@@ -25,6 +25,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from core.untrusted import visible
+
 from .reader import _blank_magics, _cells, _files
 
 __all__ = ["DEFAULT_LIBRARY_CALLS", "LibraryCall", "find_in_class", "find_in_sources", "find_library_calls",
@@ -288,7 +290,9 @@ def find_in_class(submissions: Iterable[tuple[str, str | Path]], names: dict[str
 
 
 def markdown_code(text: str) -> str:
-    """``text`` as one Markdown code span, whatever backticks it holds (student text stays text)."""
+    """``text`` as one Markdown code span, whatever backticks it holds (student text stays text:
+    its controls made visible, on one line)."""
+    text = visible(text).replace("\n", " ")
     run = max((len(m) for m in re.findall(r"`+", text)), default=0)
     fence = "`" * (run + 1)
     return f"{fence} {text} {fence}" if run else f"{fence}{text}{fence}"

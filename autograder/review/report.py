@@ -5,7 +5,9 @@ with name "Q2 <check>", score, max_score, status, output) and writes into ``out`
 
 - ``tests.csv``: per question and per test, how many results have it and the share that passed;
 - ``mistakes.csv``: each named mistake (feedback "Likely mistake: <name>." or "known mistake:
-  <name>.") with its question, count and the students who made it;
+  <name>.", where <name> is a name of the catalogue, ``judging.mistakes.KNOWN_MISTAKES``: text of
+  a student's that merely looks like one is not a mistake name) with its question, count and the
+  students who made it;
 - ``histogram_<question>.png`` (and ``histogram_total.png``): scores per question;
 - ``report.html``: all of the above on one page, the histograms embedded (works offline);
 - ``grades.csv``: ``student_id, total, Q2, ...`` (copied from the graded folder when it has one);
@@ -17,17 +19,19 @@ with name "Q2 <check>", score, max_score, status, output) and writes into ``out`
   to write (``autograder.review.library_calls``), found in the code each ``grading.json`` names
   (staff's files; a submission moved since is listed as not read), also a section of the page.
   For the staff: no points are taken, and nothing of it reaches a student's feedback.
+
+The folder and its files are the staff's alone (0700 and 0600, like the graded folder): they hold
+every student's scores.  Names, test names, code and feedback come from submissions: every CSV
+cell passes ``core.untrusted.for_csv_cell`` and every text of the page ``for_html``.
 """
 
 from __future__ import annotations
 
 import base64
 import csv
-import html
 import io
 import json
 import re
-import shutil
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,7 +39,9 @@ from pathlib import Path
 import numpy as np
 
 from core.manifest import QUESTIONS
-from core.text import points, write_atomic
+from core.text import points, private_folder, write_atomic
+from core.untrusted import csv_text, for_html
+from judging.mistakes import KNOWN_MISTAKES
 
 from .html import STYLE
 from .library_calls import find_in_class
@@ -43,10 +49,17 @@ from .library_calls import find_in_class
 __all__ = ["ClassReport", "CANVAS_COLUMNS", "load_results", "build_report", "write_report", "MISTAKE_PATTERN"]
 
 CANVAS_COLUMNS = ("Student", "ID", "SIS User ID", "SIS Login ID", "Section")
-MISTAKE_PATTERN = re.compile(r"(?:known|likely) mistake:\s*([^.\n]+?)\s*(?:\.|$)", re.IGNORECASE | re.MULTILINE)
+# Only the catalogue's names: the feedback around them quotes students, whose text must never
+# become a row of the report.
+MISTAKE_PATTERN = re.compile(
+    r"(?:known|likely) mistake:\s*(" + "|".join(re.escape(name) for name, _ in
+                                                sorted(KNOWN_MISTAKES.values(), key=lambda v: -len(v[0])))
+    + r")\s*(?:\.|$)", re.IGNORECASE | re.MULTILINE)
+_CATALOGUE_NAMES = {name.lower(): name for name, _ in KNOWN_MISTAKES.values()}
 _QUESTION_IDS = tuple(q.id for q in QUESTIONS if not q.by_hand)
 _EXTRA = {q.id for q in QUESTIONS if q.extra_credit}
 _POINTS = {q.id: q.points for q in QUESTIONS}
+_PRIVATE = 0o600  # every student's scores: the staff's alone
 
 
 @dataclass
@@ -108,7 +121,7 @@ def build_report(results: dict[str, dict]) -> ClassReport:
             tally[0] += int(passed)
             tally[1] += 1
             for m in MISTAKE_PATTERN.findall(str(t.get("output", ""))):
-                rep.mistakes[(qid, m.strip())].add(student)
+                rep.mistakes[(qid, _CATALOGUE_NAMES[m.lower()])].add(student)
         for qid in _QUESTION_IDS:
             rep.scores[qid][student] = 0.0 if failure else per_q.get(qid, 0.0)
     return rep
@@ -184,48 +197,34 @@ def write_report(graded: str | Path, out: str | Path, *, assignment: str = "HW4 
     library_calls: the names to look for -> what they do (``GradingConfig.library_names()``;
     None: the default list).
     """
-    graded, out = Path(graded), Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    results = load_results(graded)
-    rep = build_report(results)
+    graded, out = Path(graded), private_folder(out)
+    rep = build_report(load_results(graded))
     written = {}
+
+    def csv_file(name: str, rows) -> Path:
+        return write_atomic(out / name, csv_text(rows), mode=_PRIVATE)
+
     calls = find_in_class(_submission_paths(graded, rep.students), library_calls)
-    with open(out / "library_calls.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(["student", "library_function", "replaces", "kind", "in_function", "code", "where"])
-        for s in rep.students:
-            for c in calls[s][0]:
-                w.writerow([s, c.name, c.replaces, c.kind, c.function, c.code, c.where])
-    written["library_calls"] = out / "library_calls.csv"
-    # tests.csv
-    with open(out / "tests.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["question", "test", "passed", "results", "share_passed"])
-        for (qid, test), (passed, seen) in sorted(rep.tests.items(), key=lambda kv: (_qorder(kv[0][0]), kv[0][1])):
-            w.writerow([qid, test, passed, seen, f"{passed / seen:.3f}" if seen else ""])
-    written["tests"] = out / "tests.csv"
-    # mistakes.csv
+    written["library_calls"] = csv_file("library_calls.csv", [
+        ["student", "library_function", "replaces", "kind", "in_function", "code", "where"]] + [
+        [s, c.name, c.replaces, c.kind, c.function, c.code, c.where] for s in rep.students for c in calls[s][0]])
+    written["tests"] = csv_file("tests.csv", [["question", "test", "passed", "results", "share_passed"]] + [
+        [qid, test, passed, seen, f"{passed / seen:.3f}" if seen else ""]
+        for (qid, test), (passed, seen) in sorted(rep.tests.items(), key=lambda kv: (_qorder(kv[0][0]), kv[0][1]))])
     mistakes = sorted(rep.mistakes.items(), key=lambda kv: (-len(kv[1]), _qorder(kv[0][0]), kv[0][1]))
-    with open(out / "mistakes.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["question", "mistake", "count", "students"])
-        for (qid, name), studs in mistakes:
-            w.writerow([qid, name, len(studs), " ".join(sorted(studs))])
-    written["mistakes"] = out / "mistakes.csv"
-    # grades.csv and canvas.csv
+    written["mistakes"] = csv_file("mistakes.csv", [["question", "mistake", "count", "students"]] + [
+        [qid, name, len(studs), " ".join(sorted(studs))] for (qid, name), studs in mistakes])
     if (graded / "grades.csv").is_file():
-        shutil.copyfile(graded / "grades.csv", out / "grades.csv")
+        # Read and written again rather than copied: a gradebook written before its cells were
+        # made safe gets them made safe here (already safe cells stay as they are).
+        with open(graded / "grades.csv", newline="", encoding="utf-8", errors="replace") as fh:
+            rows = list(csv.reader(fh))
     else:
-        with open(out / "grades.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["student_id", "total", *_QUESTION_IDS])
-            for s in rep.students:
-                w.writerow([s, points(rep.totals[s])] + [points(rep.scores[q][s]) for q in _QUESTION_IDS])
-    written["grades"] = out / "grades.csv"
-    with open(out / "canvas.csv", "w", newline="", encoding="utf-8") as fh:
-        csv.writer(fh).writerows(canvas_rows(rep, assignment, _read_roster(Path(roster)) if roster else None,
-                                             per_question))
-    written["canvas"] = out / "canvas.csv"
+        rows = [["student_id", "total", *_QUESTION_IDS]] + [
+            [s, points(rep.totals[s])] + [points(rep.scores[q][s]) for q in _QUESTION_IDS] for s in rep.students]
+    written["grades"] = csv_file("grades.csv", rows)
+    written["canvas"] = csv_file("canvas.csv", canvas_rows(rep, assignment, _read_roster(Path(roster)) if roster
+                                                           else None, per_question))
     # histograms
     pngs = {}
     for qid in _QUESTION_IDS:
@@ -233,10 +232,8 @@ def write_report(graded: str | Path, out: str | Path, *, assignment: str = "HW4 
     base_max = sum(_POINTS[q] for q in _QUESTION_IDS if q not in _EXTRA)
     pngs["total"] = _histogram_png(rep.totals.values(), base_max, "total (autograded)")
     for key, data in pngs.items():
-        p = out / f"histogram_{key.replace('.', '_')}.png"
-        p.write_bytes(data)
-        written[f"histogram_{key}"] = p
-    write_atomic(out / "report.html", _page(rep, pngs, mistakes, calls))
+        written[f"histogram_{key}"] = write_atomic(out / f"histogram_{key.replace('.', '_')}.png", data, mode=_PRIVATE)
+    write_atomic(out / "report.html", _page(rep, pngs, mistakes, calls), mode=_PRIVATE)
     written["html"] = out / "report.html"
     return written
 
@@ -246,12 +243,12 @@ def _qorder(qid: str) -> int:
 
 
 def _img(data: bytes, alt: str) -> str:
-    return f"<img alt='{html.escape(alt)}' src='data:image/png;base64,{base64.b64encode(data).decode()}'>"
+    return f"<img alt='{for_html(alt)}' src='data:image/png;base64,{base64.b64encode(data).decode()}'>"
 
 
 def _page(rep: ClassReport, pngs: dict, mistakes, calls: dict) -> str:
     n = len(rep.students)
-    e = html.escape
+    e = for_html
     parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>Class report</title>",
              f"<style>{STYLE}</style></head><body><h1>Class report</h1>",
              f"<p>{n} graded results; {len(rep.failures)} could not be graded"
@@ -288,7 +285,7 @@ def _page(rep: ClassReport, pngs: dict, mistakes, calls: dict) -> str:
 
 def _library_calls_section(calls: dict) -> str:
     """The page's list of library calls (student -> (LibraryCall list, notes)); student code escaped."""
-    e = html.escape
+    e = for_html
     with_calls = [s for s, (found, _) in calls.items() if found]
     parts = ["<h2 id='library-calls'>Library calls to look at</h2>",
              f"<p>Uses of library functions that do what the homework asks students to write, found in the "

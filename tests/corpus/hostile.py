@@ -557,3 +557,36 @@ def eightpoint(pts1, pts2, M, refine=True):
     print("PROCESSES " + json.dumps(seen), flush=True)
     return np.eye(3)
 '''
+
+
+# Text a student controls (an exception's message, a file's or folder's name, printed output) that
+# would act where the grader writes it: markup in Markdown or HTML, a formula in a spreadsheet,
+# escapes in a terminal, bidi overrides, undecodable bytes.  The autograder must show each as text.
+HOSTILE_TEXTS: dict[str, str] = {
+    "img": "<img src=x onerror=alert(1)>",
+    "script": "<script>alert(1)</script>",
+    "svg": "<svg onload=alert(1)>",
+    "js_link": "[click me](javascript:alert(1))",
+    "image": "![tracker](http://evil.example/t.png)",
+    "autolink": "<http://evil.example> http://evil.example www.evil.example",
+    "comment": "<!-- hidden --> shown",
+    "entity": "&lt;b&gt; &#x3C;i&#x3E;",
+    "markdown_blocks": "# heading\n- item\n1. one\n    code\n\n---\n| a | b |\n|---|---|\n> quote",
+    "emphasis_code": "**bold** _it_ `code` ~~gone~~ $x^2$ [^1]",
+    "ansi_clear_colour": "\x1b[2J\x1b[H\x1b[31mred\x1b[0m",
+    "osc8_link": "\x1b]8;;http://evil.example\x1b\\click\x1b]8;;\x1b\\",
+    "title": "\x1b]0;pwned\x07title",
+    "c1_csi": "\x9b31mcsi",
+    "bidi": "abc\u202edcba\u2066x\u2069\u202c",
+    "zero_width": "a\u200bb\u200dc\ufeffd",
+    "nul_bell": "nul\x00bell\x07bs\x08",
+    "long": "A" * 20000,
+    "formula_eq": "=1+1+cmd|' /C calc'!A0",
+    "formula_plus": "+1+1",
+    "formula_minus": "-1+1",
+    "formula_at": "@SUM(1+1)",
+    "formula_tab": "\t=1+1",
+    "formula_cr": "\r=1+1",
+}
+# A file name that is not UTF-8 (bytes, as the file system holds it).
+UNDECODABLE_NAME = b"notes_\xff\xfe.py"
