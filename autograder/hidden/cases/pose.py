@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.geometry import fundamental_from_pose
+from core.geometry import IDENTITY_POSE, depths, fundamental_from_pose
 from judging.pose import pose_gap
 
 from ..scenes import Scenes
@@ -43,11 +43,21 @@ def _nearest(candidates: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return candidates[:, :, int(np.argmin(gaps))]
 
 
+def _all_in_front(right: np.ndarray, tc) -> bool:
+    """Every match of ``tc`` triangulated (the reference's linear triangulation) in front of both
+    cameras when camera 2 is ``right``: what a findM2 requiring all points in front needs."""
+    from solutions import triangulate
+
+    w, _ = triangulate(tc.K1 @ IDENTITY_POSE, tc.pts1, tc.K2 @ right, tc.pts2)
+    return bool(np.all(depths(IDENTITY_POSE, w) > 0) and np.all(depths(right, w) > 0))
+
+
 def prepare_pose(scenes: Scenes) -> Pose:
     """An exact scene (K1 != K2) with its true F, and hidden scenes with the reference's F of their
     noisy matches; the right candidate is the one nearest the true pose (the reference's choice on
     the official data, which has no truth).  Where the reference's findM2 would not choose the
-    camera nearest the truth from the reference's F, the scene's true F is given instead.  Last, the
+    camera nearest the truth from the reference's F, or that camera leaves a match behind a camera,
+    the scene's true F is given instead.  Last, the
     twisted-pair case of this draw (``solutions.twisted_pair``), judged on the camera only."""
     from solutions import essentialMatrix, findM2
     from solutions.twisted_pair import twisted_pair_case
@@ -59,10 +69,11 @@ def prepare_pose(scenes: Scenes) -> Pose:
         F = reference_F(tc)  # Q2's, made once
         if tc.has_truth:
             right = _nearest(camera2(essentialMatrix(F, tc.K1, tc.K2)), tc.scene.M2)
-            if not np.allclose(findM2(F, tc.pts1, tc.pts2, tc.K1, tc.K2)[0], right):
+            if not (np.allclose(findM2(F, tc.pts1, tc.pts2, tc.K1, tc.K2)[0], right) and _all_in_front(right, tc)):
                 # The points in front of both cameras pick another candidate than the one nearest
-                # the truth: this F is too poor to tell them apart, and every correct findM2
-                # would lose the case. The scene's true F is given instead.
+                # the truth, or some point lies behind a camera whichever candidate is taken (a
+                # findM2 that asks for all points in front, as most do, finds none): this F is too
+                # poor, and correct findM2s would lose the case. The scene's true F is given instead.
                 F = fundamental_from_pose(tc.K1, tc.K2, tc.scene.M2)
                 right = _nearest(camera2(essentialMatrix(F, tc.K1, tc.K2)), tc.scene.M2)
         else:
