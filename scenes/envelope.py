@@ -8,7 +8,7 @@ self-checks' scenes, the hidden draws) is kept inside the bounds below, and
 :func:`outside_envelope` names what is not.  This is the one home of these bounds; the generator
 (``scenes.temple``) builds inside them.
 
-Measured on the official data (``/work/shared/course-data/temple``, 640 x 480, K1 ~ K2 with
+Measured on the official data (``../shared/course-data/temple``, 640 x 480, K1 ~ K2 with
 f ~ 1520 px; F from the reference eightpoint on some_corresp, E = K2^T F K1):
 
 - some_corresp disparities pts2 - pts1: x from -8 to 10 px, y from -26 to 14 px;

@@ -1,6 +1,6 @@
 """The grader fails closed (issue 10): never weaker isolation than it claims, and a canary first.
 
-Deployment shapes reproduced here (see /work/shared/FIELD-NOTES.md):
+Deployment shapes reproduced here (see ../shared/FIELD-NOTES.md):
 
 - a container like Gradescope's: the command runs as root with Docker's default capability set
   (``setpriv --bounding-set``), where namespaces cannot be made;

@@ -4,7 +4,7 @@ submissions apart.
 
 Both levels are tested: ``namespaces`` (this machine as root) and ``uid`` (a container like
 Gradescope's: Docker's default capabilities through ``setpriv``, with a public Python's venv, see
-tests/test_fail_closed.py and /work/shared/FIELD-NOTES.md).
+tests/test_fail_closed.py and ../shared/FIELD-NOTES.md).
 """
 
 from __future__ import annotations
