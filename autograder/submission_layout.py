@@ -16,7 +16,7 @@ read and no code is run here):
   recognise another course year's signature (the rules: ``judging.conventions``, shared with the
   public self-checks; :func:`another_years_ransacF` for a helper the kit gives and earlier years
   had students write);
-- :data:`GIVEN_HELPER_SOURCE`: the body of the ``helper`` (and ``helpers``) module a student
+- :data:`GIVEN_HELPER_SOURCE`: the body of the ``helper`` (and ``helpers``, ``util``) module a student
   imports without shipping it: the kit's given helpers (``starter``).
 """
 
@@ -49,9 +49,11 @@ __all__ = [
     "signature_of",
 ]
 
-# The names the course's helper file had; a student who imports one without shipping it gets the
-# kit's given helpers (refineF, camera2, ransacF, rodrigues, invRodrigues, displayEpipolarF ...).
-GIVEN_HELPER_MODULES = ("helper", "helpers")
+# The names the course's helper file had (helper.py; Fall 2023 gave it as util.py); a student who
+# imports one without shipping it gets the kit's given helpers (refineF, camera2, ransacF,
+# rodrigues, invRodrigues, displayEpipolarF, epipolarMatchGUI, and the course file's _singularize,
+# toHomogenous, calc_epi_error, _epipoles).
+GIVEN_HELPER_MODULES = ("helper", "helpers", "util")
 GIVEN_HELPER_SOURCE = '''\
 from starter import *
 from starter import __all__
