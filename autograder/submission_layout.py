@@ -13,9 +13,10 @@ read and no code is run here):
   the one used is the file whose name (or notebook stem) matches the function's question, else
   the last one defined in reading order, and the reason is said in words;
 - :func:`signature_of`: a function's parameters, read from its syntax tree, so the grader can
-  recognise another course year's signature (:func:`another_years_ransacF` for a helper the kit
-  gives and earlier years had students write);
-- :data:`GIVEN_HELPER_SOURCE`: the body of the ``helper`` (and ``helpers``) module a student
+  recognise another course year's signature (the rules: ``judging.conventions``, shared with the
+  public self-checks; :func:`another_years_ransacF` for a helper the kit gives and earlier years
+  had students write);
+- :data:`GIVEN_HELPER_SOURCE`: the body of the ``helper`` (and ``helpers``, ``util``) module a student
   imports without shipping it: the kit's given helpers (``starter``).
 """
 
@@ -31,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import PurePosixPath
 
 from core.manifest import QUESTIONS
+from judging.conventions import Signature, another_years_ransacF
 
 __all__ = [
     "GIVEN_HELPER_MODULES",
@@ -47,9 +49,11 @@ __all__ = [
     "signature_of",
 ]
 
-# The names the course's helper file had; a student who imports one without shipping it gets the
-# kit's given helpers (refineF, camera2, ransacF, rodrigues, invRodrigues, displayEpipolarF ...).
-GIVEN_HELPER_MODULES = ("helper", "helpers")
+# The names the course's helper file had (helper.py; Fall 2023 gave it as util.py); a student who
+# imports one without shipping it gets the kit's given helpers (refineF, camera2, ransacF,
+# rodrigues, invRodrigues, displayEpipolarF, epipolarMatchGUI, and the course file's _singularize,
+# toHomogenous, calc_epi_error, _epipoles).
+GIVEN_HELPER_MODULES = ("helper", "helpers", "util")
 GIVEN_HELPER_SOURCE = '''\
 from starter import *
 from starter import __all__
@@ -207,44 +211,6 @@ def choose(function: str, qid: str, candidates: Sequence[Candidate]) -> tuple[Ca
             why += "; of the files that match as well, its name is closest to the kit's and it comes last"
         return best, why
     return best, "no file's name matches its question, and it is the last one defined (files read in path order)"
-
-
-@dataclass(frozen=True)
-class Signature:
-    """A function's parameters as written: positional (with ``defaults`` of them having one),
-    ``varargs`` (``*args`` name or None), ``kwonly`` names, ``varkw`` (``**kw`` name or None)."""
-
-    positional: tuple[str, ...]
-    defaults: int = 0
-    varargs: str | None = None
-    kwonly: tuple[str, ...] = ()
-    varkw: str | None = None
-
-    @property
-    def required(self) -> tuple[str, ...]:
-        """Positional parameters without a default."""
-        return self.positional[: len(self.positional) - self.defaults]
-
-    def __str__(self) -> str:
-        parts = [p if i < len(self.required) else f"{p}=..." for i, p in enumerate(self.positional)]
-        if self.varargs:
-            parts.append(f"*{self.varargs}")
-        elif self.kwonly:
-            parts.append("*")
-        parts += list(self.kwonly)
-        if self.varkw:
-            parts.append(f"**{self.varkw}")
-        return f"({', '.join(parts)})"
-
-
-def another_years_ransacF(signature: Signature | None) -> bool:
-    """True for an earlier year's ``ransacF(pts1, pts2, M, nIters=1000, tol=0.42)``: three required
-    parameters and none taking the eight-point function, which the kit's
-    ``ransacF(pts1, pts2, M, eightpoint, nIters=1000, tol=1.0)`` takes fourth."""
-    if signature is None or signature.varargs or len(signature.positional) < 3:
-        return False
-    names = [p.lower() for p in (*signature.positional, *signature.kwonly)]
-    return len(signature.required) == 3 and not any("eight" in p for p in names)
 
 
 def signature_of(node: ast.AST) -> Signature | None:

@@ -22,14 +22,40 @@ _M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
 def read_findM2(value, n: int) -> tuple[np.ndarray, object, object]:
     """(M2 (3, 4), C2 as returned or None, w as returned or None) from findM2's result, or Malformed.
 
-    findM2 returns (M2, C2, w); M2 alone is read too (C2 and w are then None).
+    findM2 returns (M2, C2, w); M2 alone is read too (C2 and w are then None).  Five or more
+    values in any order (Fall 2023's findM2 returned M1 and C1 too) are read by what each is: w
+    the one (n, 3) array, M1 and C1 the 3 x 4 matrices with a zero last column, M2 the other
+    3 x 4 whose left block is a rotation, C2 the remaining one.
     """
+    if isinstance(value, (tuple, list)) and len(value) > 3:
+        found = _by_role(value, n)
+        if found is not None:
+            return found
     if isinstance(value, (tuple, list)):
         parts = read_parts(value, 1, "findM2")
         M2 = read_array(parts[0], (3, 4), "M2")
         rest = tuple(value[1:3]) + (None, None)
         return M2, rest[0], rest[1]
     return read_array(value, (3, 4), "M2"), None, None
+
+
+def _by_role(value, n: int):
+    """(M2, C2, w) picked from a longer tuple by shape and content, or None when that is ambiguous."""
+    arrays = []
+    for v in value:
+        try:
+            arrays.append(np.asarray(v, dtype=float))
+        except (TypeError, ValueError):
+            arrays.append(None)
+    points = [a for a in arrays if a is not None and a.shape == (n, 3)]
+    cameras = [a for a in arrays if a is not None and a.shape == (3, 4) and np.all(np.isfinite(a))
+               and np.any(a[:, 3] != 0)]   # M1 = [I | 0] and C1 = K1 [I | 0] have t = 0
+    poses = [a for a in cameras if is_rotation(a[:, :3], atol=1e-4)]
+    if len(points) != 1 or len(cameras) != 2 or len(poses) != 1:
+        return None
+    M2 = poses[0]
+    C2 = next(a for a in cameras if a is not M2)
+    return M2, C2, points[0]
 
 
 def _angle(u, v) -> float:

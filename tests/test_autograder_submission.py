@@ -318,6 +318,30 @@ def test_a_shipped_helper_is_the_students_own(tmp_path):
     assert not any(u.module == "helpers" for u in sub.units())  # nobody imports 'helpers'
 
 
+def test_fall_2023s_util_is_the_kits_given_helpers(tmp_path):
+    """Fall 2023 gave the course's helpers as util.py: imported and not shipped, util is the kit's,
+    with the names that file had (refineF, _singularize, camera2, displayEpipolarF, epipolarMatchGUI)."""
+    import types
+
+    from autograder.submission import GIVEN_HELPERS_ORIGIN
+
+    root = write_folder(tmp_path / "sub", {
+        "submission.py": b"import util\ndef eightpoint(pts1, pts2, M):\n    return util._singularize(util.refineF)\n",
+    })
+    sub = load_submission(root)
+    assert sub.modules["util"] == GIVEN_HELPERS_ORIGIN
+    assert [n.name for n in sub.notes() if n.kind == "given_helper"] == ["util"]
+    body = next(u for u in sub.units() if u.module == "util")
+    util = types.ModuleType("util")
+    exec(compile(body.source, "<util>", "exec"), util.__dict__)  # noqa: S102 - the kit's own source
+    for name in ("refineF", "_singularize", "camera2", "displayEpipolarF", "epipolarMatchGUI", "rodrigues"):
+        assert callable(getattr(util, name)), name
+    # A util.py of the student's own stays theirs.
+    mine = load_submission(write_folder(tmp_path / "mine", {"submission.py": b"import util\n",
+                                                            "util.py": b"def refineF(F, a, b):\n    return F\n"}))
+    assert mine.modules["util"] == "util.py"
+
+
 def test_duplicates_prefer_the_file_of_the_question_else_the_last(tmp_path):
     root = write_folder(tmp_path / "sub", {
         "a_scratch.py": b"def triangulate(C1, pts1, C2, pts2):\n    return 'scratch'\n"

@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 
 import corpus
+import numpy as np
 import pytest
 from corpus import variants
 
@@ -321,3 +322,102 @@ def test_another_years_compute3D_pts_gets_full_Q42(hidden):
     q42 = _questions(hidden, compute3D_pts=fn, triangulate=lambda *a: None)["Q4.2"]
     assert q42.score == q42.max_score, [t.feedback for t in q42.tests]
     assert "as the course calls it" in q42.tests[0].feedback
+
+
+# ------------------------------------------------------------------------------------- one home for the conventions
+# judging.conventions says how another year's signature is called; the grader (above) and the public
+# self-checks (below) both follow it, so one program gets the same call in both.
+
+def _points_first_findM2():
+    """Fall 2023's findM2(pts1, pts2, F, K1, K2), returning five values (M1, C1 first)."""
+    import solutions
+
+    def findM2(pts1, pts2, F, K1, K2):
+        M2, C2, P = solutions.findM2(F, pts1, pts2, K1, K2)
+        M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+        return M1, K1 @ M1, M2, C2, P
+
+    return findM2
+
+
+def test_conventions_recognise_each_years_signature_by_its_parameters():
+    from judging.conventions import Signature, findM2_style, five_arguments, signature_of_callable
+
+    def kit(F, pts1, pts2, K1, K2): ...
+    def intr(F, pts1, pts2, intrinsics, filename="q3_3.npz"): ...
+    def first(pts1, pts2, F, K1, K2): ...
+    def c3d(temple_pts1, intrinsics, F, im1, im2): ...
+
+    assert [findM2_style(signature_of_callable(f)) for f in (kit, intr, first)] == ["kit", "intrinsics", "points_first"]
+    assert findM2_style(None) == "kit"
+    assert findM2_style(Signature(("p1", "p2", "F", "k1", "k2"))) == "points_first"
+    assert findM2_style(Signature(("a", "b", "c", "d", "e"))) == "kit"       # nothing to tell it by: the kit's
+    assert findM2_style(Signature(("pts1", "pts2", "F", "K1", "K2"), varargs="rest")) == "kit"
+    assert five_arguments(signature_of_callable(c3d)) and not five_arguments(signature_of_callable(kit))
+
+
+def test_five_returned_values_are_read_by_what_each_is():
+    from judging.pose import read_findM2
+    from starter.pose import camera2
+
+    rng = np.random.default_rng(0)
+    K1, K2 = np.diag([500.0, 500.0, 1.0]), np.diag([520.0, 510.0, 1.0])
+    M2 = camera2(np.array([[0.0, -1, 0], [1, 0, -1], [0, 1, 0]]))[:, :, 1]
+    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+    P = rng.normal(size=(10, 3))
+    for value in ((M1, K1 @ M1, M2, K2 @ M2, P), (M2, K2 @ M2, P, M1, K1 @ M1)):
+        got = read_findM2(value, 10)
+        assert np.array_equal(got[0], M2) and np.array_equal(got[1], K2 @ M2) and np.array_equal(got[2], P)
+
+
+def test_points_first_findM2_gets_full_Q33(hidden):
+    q33 = _questions(hidden, findM2=_points_first_findM2())["Q3.3"]
+    assert q33.score == q33.max_score, [t.feedback for t in q33.tests]
+    assert "findM2(pts1, pts2, F, K1, K2)" in q33.tests[0].feedback
+
+
+@pytest.mark.parametrize("style", ["intrinsics", "points_first"])
+def test_the_self_check_calls_findM2_as_the_grader_does(style):
+    from starter.checks import check_findM2
+
+    fn = (_defined(variants.FINDM2_INTRINSICS, "findM2") if style == "intrinsics" else _points_first_findM2())
+    report = check_findM2(fn, verbose=False)
+    assert report.passed, report.items
+    assert any("called as its parameters ask" in n for n in report.notes)
+
+
+def test_the_self_check_calls_five_argument_compute3D_pts_as_the_grader_does():
+    import solutions
+    from starter.checks import check_compute3D_pts
+
+    fn = _defined(variants.COMPUTE3D_FIVE_ARGUMENTS, "compute3D_pts")
+    fn.__globals__.update(epipolarCorrespondence=solutions.epipolarCorrespondence, findM2=solutions.findM2)
+    report = check_compute3D_pts(fn, verbose=False)
+    assert report.passed, report.items
+
+
+def test_the_self_check_counts_the_matcher_and_triangulate_when_compute3D_pts_gives_cameras_only(tmp_path,
+                                                                                                   monkeypatch):
+    """2022-2024's compute3D_pts that writes result/q4_2.npz and returns M2: the folder is made (as the
+    sandbox has it) and the points of the student's matcher and triangulate count, as in the grader."""
+    import solutions
+    from starter.checks import check_compute3D_pts
+
+    source = variants.COMPUTE3D_FIVE_ARGUMENTS.replace(
+        "    return P\n", "    np.savez('result/q4_2.npz', M2=M2, C2=C2)\n    return M2\n")
+    fn = _defined(source, "compute3D_pts")
+    fn.__globals__.update(epipolarCorrespondence=solutions.epipolarCorrespondence, findM2=solutions.findM2,
+                          triangulate=solutions.triangulate)
+    monkeypatch.chdir(tmp_path)
+    report = check_compute3D_pts(fn, verbose=False)
+    assert report.passed, report.items
+    assert (tmp_path / "result" / "q4_2.npz").is_file()
+    assert any("epipolarCorrespondence and triangulate" in n for n in report.notes)
+
+
+def test_the_sandbox_and_the_self_checks_make_the_handouts_result_folders():
+    from autograder.sandbox.script import RESULT_DIRS
+    from core.paths import RESULT_FOLDERS
+
+    assert {"results", "result"} <= set(RESULT_FOLDERS)
+    assert {"results", "../results", "result", "../result"} <= set(RESULT_DIRS)

@@ -359,25 +359,14 @@ def student(request, grading_config, hidden):
 @pytest.fixture(scope="session")
 def signatures(request):
     """``signatures(name)``: the parameters of the student's function ``name`` as written
-    (``autograder.submission_layout.Signature``), or None when unknown; lets a check call another
+    (``judging.conventions.Signature``), or None when unknown; lets a check call another
     year's signature as that year's course did."""
-    from autograder.submission_layout import Signature
+    from judging.conventions import signature_of_callable
 
     local = _local(request.config)
     if local is not None:
-        import inspect
-
         functions = getattr(local.student, "functions", {})
-
-        def of_local(name):
-            try:
-                ps = list(inspect.signature(functions[name]).parameters.values())
-            except (KeyError, TypeError, ValueError):
-                return None
-            pos = tuple(p.name for p in ps if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD))
-            defaults = sum(p.default is not p.empty for p in ps if p.name in pos)
-            return Signature(pos, defaults, kwonly=tuple(p.name for p in ps if p.kind == p.KEYWORD_ONLY))
-        return of_local
+        return lambda name: signature_of_callable(functions[name]) if name in functions else None
     sub = request.getfixturevalue("submission")
     return sub.signature
 

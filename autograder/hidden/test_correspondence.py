@@ -27,6 +27,7 @@ from autograder.hidden.feedback import called_as, failure, read_returned, return
 from autograder.hidden.plugin import config_of
 from starter.data import course_image
 from judging import correspondence as jc
+from judging.conventions import compute3D_pts_five_calls, five_arguments
 from judging.verdict import Malformed
 
 _MATCH = "epipolarCorrespondence"
@@ -176,33 +177,21 @@ def _first_points(value, n: int) -> np.ndarray:
         raise Malformed("triangulate did not return (N, 3) points first") from None
 
 
-def five_arguments(signature) -> bool:
-    """True for another year's compute3D_pts(temple_pts1, intrinsics, F, im1, im2) (2022-2024)."""
-    return (signature is not None and len(signature.required) == 5 and not signature.varargs
-            and "intrinsic" in signature.positional[1].lower())
-
-
-def _five_argument_points(student, c, n):
+def _five_argument_points(student, c, n, signature):
     """(verdict, how, problem) of compute3D_pts(temple_pts1, intrinsics, F, im1, im2): the points
     come in the frame of the student's own findM2 (|t| = 1), judged up to a similarity; returned
     alone or in a tuple with the cameras ((M2, C2, P) as 2022-2024 hand-ins return them)."""
     K = c.C1[:, :3]
-    xy = np.rint(c.pts1).astype(int)
-    intrinsics = {"K1": K, "K2": K}
-    im1, im2 = course_image(c.im1), course_image(c.im2)
     problem = ""
-    for pts, how in ((xy, "temple_pts1 an Nx2 int array"), ({"x1": xy[:, :1].copy(), "y1": xy[:, 1:].copy()},
-                                                             "temple_pts1 a dict of x1, y1 as templeCoords.npz")):
-        args = (pts, intrinsics, c.F, im1, im2)
-        o = student.each("compute3D_pts", [args], seconds=SECONDS[_MATCH] * n + SECONDS["compute3D_pts.triangulate"]
-                         + SECONDS["findM2"])[0]
-        names = ("temple_pts1", "intrinsics", "F", "im1", "im2")
+    for call in compute3D_pts_five_calls(signature, c.pts1, K, K, c.F, course_image(c.im1), course_image(c.im2)):
+        o = student.each("compute3D_pts", [call.args], seconds=SECONDS[_MATCH] * n
+                         + SECONDS["compute3D_pts.triangulate"] + SECONDS["findM2"])[0]
         try:
-            w = read_returned("compute3D_pts", o, lambda v: jc.read_points(v, n), args, names=names)
+            w = read_returned("compute3D_pts", o, lambda v: jc.read_points(v, n), call.args, names=call.names)
         except Malformed as exc:
             problem = problem or str(exc)
             continue
-        return _structure(w, c), how, ""
+        return _structure(w, c), call.how, ""
     return None, "", problem
 
 
@@ -242,7 +231,7 @@ def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
     direct_sig = "compute3D_pts(im1, im2, F, x1, y1, C1, C2)"
     if five_arguments(signatures("compute3D_pts")):
         direct_sig = "compute3D_pts(temple_pts1, intrinsics, F, im1, im2) as the course calls it"
-        direct_v, how, direct_problem = _five_argument_points(student, c, n)
+        direct_v, how, direct_problem = _five_argument_points(student, c, n, signatures("compute3D_pts"))
         direct_how = f"{how}, float images in [0, 1]; your points compared up to a similarity"
     for convention in (() if five_arguments(signatures("compute3D_pts")) else CONVENTIONS):
         how, coord, image = CONVENTIONS[convention]

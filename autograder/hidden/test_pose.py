@@ -8,7 +8,8 @@ of camera 1 only picks the twisted pair; the camera only is judged there).  C2 m
 and w the points triangulated with it.
 
 Another year's ``findM2(F, pts1, pts2, intrinsics, filename=...)`` (2022-2024: intrinsics a dict
-{'K1', 'K2'}) is recognised by its parameters and called that way; the feedback says how.
+{'K1', 'K2'}) or ``findM2(pts1, pts2, F, K1, K2)`` (Fall 2023) is recognised by its parameters
+and called that way (``judging.conventions``, as the self-check calls it); the feedback says how.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import pytest
 from autograder.hidden.cases import M1, SECONDS
 from autograder.hidden.feedback import read_returned
 from judging import pose as jp
+from judging.conventions import findM2_call
 from judging.verdict import Malformed
 
 
@@ -28,22 +30,10 @@ def pose(hidden):
     return hidden.prepared["pose"]
 
 
-def intrinsics_style(signature) -> bool:
-    """True for another year's findM2(F, pts1, pts2, intrinsics, filename=...) (K1 and K2 in one dict)."""
-    if signature is None or signature.varargs or "K1" in signature.positional:
-        return False
-    pos = signature.positional
-    return len(pos) >= 4 and ("intrinsic" in pos[3].lower() or len(signature.required) == 4)
-
-
 def findM2_args(case, signature) -> tuple[tuple, tuple[str, ...]]:
     """(arguments, their names) of findM2 for ``case`` in the convention ``signature`` was written for."""
-    if intrinsics_style(signature):
-        args = (case.F, case.pts1, case.pts2, {"K1": case.K1, "K2": case.K2})
-        if len(signature.required) >= 5:
-            args += ("q3_3.npz",)
-        return args, signature.positional[:len(args)]
-    return (case.F, case.pts1, case.pts2, case.K1, case.K2), ("F", "pts1", "pts2", "K1", "K2")
+    call = findM2_call(signature, case.F, case.pts1, case.pts2, case.K1, case.K2)
+    return call.args, call.names
 
 
 @pytest.fixture(scope="session")
@@ -80,8 +70,9 @@ def _mistakes(verdicts) -> list:
 def test_M2_is_the_right_camera(pose, findM2_verdicts, signatures, score):
     lines = [f"{c.label}: {v if isinstance(v, Malformed) else v[0].sentence}"
              for c, v in zip(pose.cases, findM2_verdicts)]
-    if intrinsics_style(signatures("findM2")):
-        lines.insert(0, "findM2 was called as its parameters ask: findM2(F, pts1, pts2, intrinsics={'K1', 'K2'}, ...)")
+    how = findM2_call(signatures("findM2"), None, None, None, None, None).how
+    if how:
+        lines.insert(0, how)
     right = sum(not isinstance(v, Malformed) and v[0].passed for v in findM2_verdicts)
     score.grade(right / len(pose.cases), lines, _mistakes(findM2_verdicts))
 

@@ -16,6 +16,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from core.paths import RESULT_FOLDERS
+
 from .model import ResourceLimits
 from .uids import count_processes
 
@@ -112,9 +114,10 @@ def unreachable_python_dirs() -> dict[Path, list[Path]]:
 
 
 # Folders student code may write its results into, relative to its working folder (the
-# handouts of several years said `results/` or `../results/`).  Both lie inside the child's own
-# scratch area: the working folder is <scratch>/run, so `..` is the scratch folder itself.
-RESULT_DIRS = ("results", "../results")
+# handouts of several years said `results/` or `../results/`, 2022-2024's `result/`:
+# core.paths.RESULT_FOLDERS).  All lie inside the child's own scratch area: the working folder is
+# <scratch>/run, so `..` is the scratch folder itself.
+RESULT_DIRS = tuple(f"{up}{name}" for up in ("", "../") for name in RESULT_FOLDERS)
 # The child's own temporary folders, beside its working folder in its scratch area (0700, the
 # sandbox uid's): TMPDIR, TEMP and TMP name the first, XDG_RUNTIME_DIR the second.  Every library
 # that asks where to put temporary files (tempfile, matplotlib, joblib...) is sent there, never
@@ -126,8 +129,9 @@ def make_workdir(rt: Runtime, jobdir: Path) -> Path:
     """A fresh working folder (HOME and cwd) for one child, owned by the sandbox's uid.
 
     The folder is ``<scratch>/run`` with ``<scratch>`` private to the child (``jobdir/work``, or
-    ``/tmp/work`` on the namespace's private /tmp); ``run/results`` and ``<scratch>/results``
-    exist and are writable (RESULT_DIRS), so code that saves its results before returning works.
+    ``/tmp/work`` on the namespace's private /tmp); ``run/results``, ``run/result``,
+    ``<scratch>/results`` and ``<scratch>/result`` exist and are writable (RESULT_DIRS), so code
+    that saves its results before returning works.
     """
     if rt.namespaced and rt.private_tmp:
         return Path("/tmp/work/run")  # made by the namespace's shell on the private /tmp

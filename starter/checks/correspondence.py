@@ -1,4 +1,10 @@
-"""Public checks of Q4: ``epipolarCorrespondence`` and ``compute3D_pts``; every verdict is judging.correspondence's."""
+"""Public checks of Q4: ``epipolarCorrespondence`` and ``compute3D_pts``; every verdict is judging.correspondence's.
+
+Another year's ``compute3D_pts(temple_pts1, intrinsics, F, im1, im2)`` is called as its
+parameters ask, by the rules the grader uses (judging.conventions); when compute3D_pts gives no
+points, the points of the student's own epipolarCorrespondence and triangulate count, as the
+grader counts them.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from judging import correspondence as jc
+from judging.conventions import compute3D_pts_five_calls, five_arguments, signature_of_callable
 from judging.verdict import Malformed
 from starter.data import course_image
 
@@ -120,16 +127,52 @@ def _explain_call_error(out: Outcome) -> Outcome:
     return out
 
 
-def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, verbose: bool = True) -> CheckReport:
+def _five_argument_call(compute3D_pts, signature, case, n) -> tuple[Outcome, str]:
+    """(outcome, how) of 2022-2024's compute3D_pts(temple_pts1, intrinsics, F, im1, im2) on ``case``:
+    the first call whose result holds the points, else the first call's outcome."""
+    K1 = np.asarray(case.C1, float)[:, :3]
+    M2 = getattr(case, "M2", None)
+    K2 = np.asarray(case.C2, float)[:, :3] @ np.asarray(M2, float)[:, :3].T if M2 is not None else K1
+    first = None
+    for c in compute3D_pts_five_calls(signature, case.pts1, K1, K2, case.F, case.im1.copy(), case.im2.copy()):
+        out = call(compute3D_pts, *c.args)
+        first = first or (out, c.how)
+        if out.ok:
+            try:
+                jc.read_points(out.value, n)
+            except Malformed:
+                continue
+            return out, c.how
+    return first
+
+
+def _pipeline_points(matcher, triangulate, case) -> Outcome:
+    """Outcome whose value is w (P, 3): the student's matches of ``case`` put through their triangulate."""
+    matched = _match_all(matcher, case)
+    if not matched.ok:
+        return matched
+    p1 = np.asarray(case.pts1, float)
+    out = call(triangulate, np.array(case.C1, float), p1.copy(), np.array(case.C2, float), matched.value)
+    if out.ok and isinstance(out.value, (tuple, list)) and out.value:
+        return Outcome("ok", out.value[0])
+    return out
+
+
+def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, epipolarCorrespondence=None, triangulate=None,
+                        verbose: bool = True) -> CheckReport:
     """Reconstruct points of a generated pair (true 3D known).
 
     Parameters
     ----------
     compute3D_pts : the student's function, called as compute3D_pts(im1, im2, F, x1, y1, C1,
         C2) with x1, y1 (N, 1) integer arrays like templeCoords.npz's; it returns w (N, 3) or
-        (w, pts2) with pts2 (N, 2) the matches found.
+        (w, pts2) with pts2 (N, 2) the matches found.  2022-2024's compute3D_pts(temple_pts1,
+        intrinsics, F, im1, im2), returning P (or P among the cameras), is called that way.
     cases : the MatchCases to check on (default as for check_epipolarCorrespondence).
     root : accepted like every check's; the default data are not used (they have no F or cameras).
+    epipolarCorrespondence, triangulate : the student's own (default: those compute3D_pts sees
+        as globals, as in a notebook); when compute3D_pts returns no points (another year's
+        returned only cameras), the points of these two count, as in the grader.
     verbose : print the report.
 
     Checked (judging.correspondence): the easy points' 3D points lie on the true structure, up to
@@ -138,24 +181,46 @@ def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, verbose: bool =
     report = CheckReport("compute3D_pts")
     todo, notes = _cases(cases, root)
     report.notes.extend(notes)
+    signature = signature_of_callable(compute3D_pts)
+    five = five_arguments(signature)
+    if five:
+        report.notes.append("compute3D_pts was called as its parameters ask: compute3D_pts(temple_pts1, intrinsics, "
+                            "F, im1, im2); the points are judged up to a similarity")
+    scope = getattr(compute3D_pts, "__globals__", {})
+    matcher = epipolarCorrespondence or scope.get("epipolarCorrespondence")
+    triangulate = triangulate or scope.get("triangulate")
     for k, case in enumerate(todo):
         p1 = np.rint(np.asarray(case.pts1, float)).astype(np.uint16)
-        out = _explain_call_error(call(compute3D_pts, case.im1.copy(), case.im2.copy(), np.array(case.F, float),
-                                       p1[:, :1].copy(), p1[:, 1:].copy(), np.array(case.C1, float),
-                                       np.array(case.C2, float)))
+        if five:
+            out, how = _five_argument_call(compute3D_pts, signature, case, len(p1))
+        else:
+            out = _explain_call_error(call(compute3D_pts, case.im1.copy(), case.im2.copy(), np.array(case.F, float),
+                                           p1[:, :1].copy(), p1[:, 1:].copy(), np.array(case.C1, float),
+                                           np.array(case.C2, float)))
         if k == 0 and stop_if_not_implemented(report, out):
             return finish(report, verbose)
         if run_failed(report, out, case.label):
             continue
-        w = read_or_report(report, jc.read_points, out.value, len(p1),
-                           label=f"returns w (N, 3) or (w, pts2) ({case.label})")
-        if w is not None:
-            truth3d, tol3d = getattr(case, "truth3d", None), getattr(case, "tol3d", None)
-            if truth3d is None or tol3d is None:
-                report.notes.append(f"{case.label}: no true 3D points to judge the structure against")
+        try:
+            w = jc.read_points(out.value, len(p1))
+        except Malformed as exc:
+            w = None
+            if callable(matcher) and callable(triangulate):
+                piped = _pipeline_points(matcher, triangulate, case)
+                if piped.ok:
+                    report.notes.append(f"{case.label}: compute3D_pts gave no points ({exc}): the points of your "
+                                        "epipolarCorrespondence and triangulate are judged, as the grader does")
+                    w = read_or_report(report, jc.read_points, piped.value, len(p1),
+                                       label=f"your matches triangulated ({case.label})")
+                    if w is None:
+                        continue
+            if w is None:
+                report.add(f"returns w (N, 3) or (w, pts2) ({case.label})", False, str(exc))
                 continue
-            report.judged(jc.points3d(w, truth3d, tol3d, case.ref_share_3d, case.pts1, getattr(case, "M2", None)),
-                          case.label)
+        truth3d, tol3d = getattr(case, "truth3d", None), getattr(case, "tol3d", None)
+        if truth3d is None or tol3d is None:
+            report.notes.append(f"{case.label}: no true 3D points to judge the structure against")
+            continue
+        report.judged(jc.points3d(w, truth3d, tol3d, case.ref_share_3d, case.pts1,
+                                  None if five else getattr(case, "M2", None)), case.label)
     return finish(report, verbose)
-
-

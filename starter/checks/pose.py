@@ -1,9 +1,14 @@
-"""Public check of Q3.3: ``findM2(F, pts1, pts2, K1, K2) -> (M2, C2, w)``; every verdict is judging.pose's."""
+"""Public check of Q3.3: ``findM2(F, pts1, pts2, K1, K2) -> (M2, C2, w)``; every verdict is judging.pose's.
+
+Another year's findM2 (``findM2(F, pts1, pts2, intrinsics, filename=...)``, ``findM2(pts1, pts2,
+F, K1, K2)``) is called as its parameters ask, by the rules the grader uses (judging.conventions).
+"""
 
 from __future__ import annotations
 
 from core.geometry import IDENTITY_POSE
 from judging import pose as jp
+from judging.conventions import findM2_call, signature_of_callable
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
 from ._scenes import NO_DEFAULT_DATA, NoisyPair, triangulation_goal, two_view
@@ -54,16 +59,25 @@ def check_findM2(findM2, *, scene: NoisyPair | None = None, F=None, right=None, 
     named as a depth test of one camera only.
     """
     report = CheckReport("findM2")
+    signature = signature_of_callable(findM2)
+
+    def run(F_, p1, p2, K1, K2):
+        c = findM2_call(signature, F_.copy(), p1.copy(), p2.copy(), K1.copy(), K2.copy())
+        return call(findM2, *c.args)
+
+    how = findM2_call(signature, None, None, None, None, None).how
+    if how:
+        report.notes.append(how)
     tv = scene or two_view()
     pair = tv.pair
-    out = call(findM2, pair.F.copy(), pair.pts1.copy(), pair.pts2.copy(), pair.K1.copy(), pair.K2.copy())
+    out = run(pair.F, pair.pts1, pair.pts2, pair.K1, pair.K2)
     if stop_if_not_implemented(report, out):
         return finish(report, verbose)
     if not run_failed(report, out, "a generated scene"):
         _judge(report, out.value, pair.K1, pair.K2, pair.pts1, pair.pts2, pair.M2, "generated")
     if F is not None:
         p1, p2 = tv.pts1_u16.astype(float), tv.pts2_u16.astype(float)
-        out = call(findM2, F.copy(), p1.copy(), p2.copy(), pair.K1.copy(), pair.K2.copy())
+        out = run(F, p1, p2, pair.K1, pair.K2)
         if not run_failed(report, out, "noisy matches"):
             _judge(report, out.value, pair.K1, pair.K2, p1, p2, pair.M2 if right is None else right, "noisy")
 
@@ -71,7 +85,7 @@ def check_findM2(findM2, *, scene: NoisyPair | None = None, F=None, right=None, 
         twisted = public_case()
     if twisted is not None:
         tp = twisted.pair
-        out = call(findM2, tp.F.copy(), twisted.pts1.copy(), twisted.pts2.copy(), tp.K1.copy(), tp.K2.copy())
+        out = run(tp.F, twisted.pts1, twisted.pts2, tp.K1, tp.K2)
         if not run_failed(report, out, "matches near the epipoles"):
             _judge(report, out.value, tp.K1, tp.K2, twisted.pts1, twisted.pts2, tp.M2, "near the epipoles",
                    X=tp.X, outputs=False)
