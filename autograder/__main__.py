@@ -69,9 +69,13 @@ def _batch_errors(run):
         return 2
     except BatchInterrupted as exc:
         signal.signal(signal.SIGINT, lambda *_: os._exit(130))  # everything is recorded: another Ctrl-C just exits
-        print(f"\ninterrupted: {len(exc.records)} submissions recorded, {len(exc.cancelled)} cancelled and not "
-              f"recorded ({for_terminal(', '.join(exc.cancelled)) or 'none'}); run the same command again to resume",
-              file=sys.stderr)
+        if exc.setup:
+            print("\ninterrupted while setting up: nothing was graded or recorded; run the same command again to "
+                  "grade", file=sys.stderr)
+        else:
+            print(f"\ninterrupted: {len(exc.records)} submissions recorded, {len(exc.cancelled)} cancelled and not "
+                  f"recorded ({for_terminal(', '.join(exc.cancelled)) or 'none'}); run the same command again to "
+                  "resume", file=sys.stderr)
         # Exit now (clean-ups registered with atexit run; no interpreter shutdown a Ctrl-C could cut).
         sys.stdout.flush()
         sys.stderr.flush()

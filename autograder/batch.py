@@ -27,6 +27,11 @@ What makes it safe to stop and resume:
   sandbox must not give a student a zero), grades.csv and summary.md are written for what is done
   and ``BatchInterrupted`` is raised, within about 8 s.  A second Ctrl-C kills the grading
   processes, writes grades.csv from what is on disk and exits the process at once (status 130).
+  The handling is in place before the set-up starts (even when the grader was started with
+  SIGINT ignored, as a shell starts a background job): Ctrl-C while the hidden inputs are made or
+  the canary runs stops the set-up where it is, kills the canary's grading processes and raises
+  ``BatchInterrupted`` (``setup``) at once, with nothing graded or recorded (no journal entry, no
+  grades.csv); the same command later grades normally.
 - One folder, one grader: a lock file (``<out>/.lock``) refuses a second batch into the same folder.
 """
 
@@ -73,12 +78,20 @@ _INTERNAL = "because of an internal error"
 
 class BatchInterrupted(KeyboardInterrupt):
     """The batch was stopped by Ctrl-C: ``records`` are the submissions finished (and recorded),
-    ``cancelled`` the names whose grading was cancelled (nothing recorded; graded on resume)."""
+    ``cancelled`` the names whose grading was cancelled (nothing recorded; graded on resume).
+    ``setup``: stopped while being set up (hidden inputs, the canary): nothing was graded or
+    recorded, and grades.csv was not written."""
 
-    def __init__(self, records: list, cancelled: list[str]):
-        super().__init__(f"interrupted: {len(records)} done, {len(cancelled)} cancelled")
+    def __init__(self, records: list, cancelled: list[str], *, setup: bool = False):
+        super().__init__("interrupted while setting up: nothing graded" if setup else
+                         f"interrupted: {len(records)} done, {len(cancelled)} cancelled")
         self.records = records
         self.cancelled = cancelled
+        self.setup = setup
+
+
+class _SetUpCancelled(KeyboardInterrupt):
+    """Raised in the main thread by the first Ctrl-C while the batch is being set up."""
 
 
 class ConfigurationMismatch(ValueError):
@@ -428,18 +441,86 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
          extra_tests, forced, note, allow_weak=False, canary=True) -> list[BatchRecord]:
     key = record["key"]
     levels: set = set()
-    _write_configuration(out, record, levels)
-    journal = _Journal(out)
-    hidden_inputs = build_hidden_inputs(config)
-    hidden_cache(hidden_inputs)  # made once, before the workers start
-    sandbox_hidden = _hidden_for_sandbox(paths, out, config) + extra_tests
-
     cancel = threading.Event()
     write_lock = threading.Lock()
     local = threading.local()
     boxes: list[Sandbox] = []
     boxes_lock = threading.Lock()
     inflight: set[str] = set()
+    # Ctrl-C is handled from here on, set-up included: "setup" while nothing is graded yet (the
+    # first signal stops the set-up), "raise" while the main thread may be stopped where it is.
+    sig = {"signals": 0, "setup": True, "raise": False}
+
+    def hard_exit() -> None:
+        # Second Ctrl-C: kill the grading processes, record nothing more, keep what is on disk.
+        got = write_lock.acquire(timeout=1.0)
+        cancel.set()
+        _kill_grading_processes(boxes)
+        for name in list(inflight):
+            journal.clear(name)
+        if not sig["setup"]:
+            try:
+                cancelled.extend(sorted(inflight))
+                write_gradebook()
+            except Exception:  # noqa: BLE001 - exiting anyway
+                pass
+        if got:
+            write_lock.release()
+        sys.stderr.write("\ninterrupted twice: stopped at once; grades.csv lists what was finished\n"
+                         if not sig["setup"] else "\ninterrupted twice while setting up: nothing was graded\n")
+        sys.stderr.flush()
+        os._exit(130)
+
+    def on_signal(signum, frame) -> None:
+        sig["signals"] += 1
+        if sig["signals"] == 1:
+            cancel.set()
+            if sig["raise"]:
+                sig["raise"] = False
+                raise _SetUpCancelled()
+        else:
+            hard_exit()
+
+    handlers = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            handlers[signum] = signal.signal(signum, on_signal)
+
+    def restore_handlers() -> None:
+        for signum, old in handlers.items():
+            signal.signal(signum, old)
+
+    def stop_set_up() -> BatchInterrupted:
+        # Nothing was graded: no journal entry was written, nothing is recorded.  The canary's
+        # grading processes (a worker, the key's sandbox) are killed; the same command grades later.
+        sig["raise"] = False
+        _kill_grading_processes(boxes)
+        with boxes_lock:
+            for box in boxes:
+                box.close()
+        restore_handlers()
+        return BatchInterrupted([], [], setup=True)
+
+    def check_cancel() -> None:
+        if cancel.is_set():
+            raise _SetUpCancelled()
+
+    try:
+        check_cancel()
+        _write_configuration(out, record, levels)
+        journal = _Journal(out)
+        sig["raise"] = True  # making the hidden inputs: stopped where it is by the first signal
+        hidden_inputs = build_hidden_inputs(config)
+        hidden_cache(hidden_inputs)  # made once, before the workers start
+        sig["raise"] = False
+        check_cancel()
+        sandbox_hidden = _hidden_for_sandbox(paths, out, config) + extra_tests
+    except _SetUpCancelled:
+        raise stop_set_up() from None
+    except BaseException:
+        sig["raise"] = False
+        restore_handlers()
+        raise
 
     def sandbox() -> Sandbox:
         if getattr(local, "box", None) is None:
@@ -460,7 +541,8 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         folder = out / name
         with write_lock:
             if cancel.is_set():
-                journal.clear(name)
+                if not sig["setup"]:  # (in the set-up, nothing was started: the journal stays as found)
+                    journal.clear(name)
                 return None  # graded (or broken) while being cancelled: nothing recorded, no strike
             _write_outputs(folder, result, _state(result, path, digest, staff, poison=poison))
             journal.clear(name)
@@ -504,74 +586,89 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         bar.update(1)
         bar.set_postfix_str(for_terminal(f"{rec.name}: {rec.score:g}" + (" (resumed)" if rec.skipped else ""), 80))
 
-    for k, (path, name) in enumerate(zip(paths, names)):
-        try:
-            digest = submission_digest(path)
-        except OSError as exc:  # one unreadable submission is its student's failure, never the batch's
-            result = SubmissionResult.failed(
-                f"the submission could not be read ({type(exc).__name__}: {exc.strerror or exc}); the course "
-                "staff will look at it", student_id=name)
-            rec = finish(result, path, name, "unreadable", {"log": [traceback.format_exc()]}, time.monotonic())
-            if rec is not None:
-                done(k, rec)
-            continue
-        deaths = journal.deaths(name, digest, key)
-        folder = out / name
-        if deaths >= DEATHS_TO_FAIL and name not in forced:
-            staff = {"log": [f"the grader process died {deaths} times while this submission was being graded "
-                             f"(killed or stopped from outside, or by the submission); not graded again. Look at "
-                             f"it by hand, or grade it alone with --regrade {name}."]}
-            result = SubmissionResult.failed(
-                "the autograder stopped while grading this submission, more than once, so it was not graded; "
-                "the course staff will look at it", student_id=name)
-            rec = finish(result, path, name, digest, staff, time.monotonic(), poison=True)
-            if rec is not None:
-                done(k, rec)
-            continue
-        if resume and name not in forced:
-            state = _resumable(folder, digest, key)
-            if state is not None:
-                iso = state.get("isolation")
-                done(k, BatchRecord(name, path, folder, float(state.get("score", 0.0)),
-                                    dict(state.get("scores", {})), state.get("failure"), True, 0.0, key,
-                                    iso.get("level") if isinstance(iso, dict) else None,
-                                    **staff_of(state.get("staff"))))
-                continue
-        (suspects if deaths else rest).append((k, path, name, digest, deaths + 1))
-
-    tasks: queue.Queue = queue.Queue()
-    results: queue.Queue = queue.Queue()
-
-    def worker() -> None:
-        while True:
-            item = tasks.get()
-            if item is None:
-                return
-            k, path, name, digest, attempt = item
+    try:
+        for k, (path, name) in enumerate(zip(paths, names)):
+            if cancel.is_set():
+                break
             try:
-                rec = work(path, name, digest, attempt)
-            except BaseException:  # noqa: BLE001 - a worker never dies silently
-                traceback.print_exc()
-                rec = None
-            results.put((k, name, rec))
+                digest = submission_digest(path)
+            except OSError as exc:  # one unreadable submission is its student's failure, never the batch's
+                result = SubmissionResult.failed(
+                    f"the submission could not be read ({type(exc).__name__}: {exc.strerror or exc}); the course "
+                    "staff will look at it", student_id=name)
+                rec = finish(result, path, name, "unreadable", {"log": [traceback.format_exc()]}, time.monotonic())
+                if rec is not None:
+                    done(k, rec)
+                continue
+            deaths = journal.deaths(name, digest, key)
+            folder = out / name
+            if deaths >= DEATHS_TO_FAIL and name not in forced:
+                staff = {"log": [f"the grader process died {deaths} times while this submission was being graded "
+                                 f"(killed or stopped from outside, or by the submission); not graded again. Look at "
+                                 f"it by hand, or grade it alone with --regrade {name}."]}
+                result = SubmissionResult.failed(
+                    "the autograder stopped while grading this submission, more than once, so it was not graded; "
+                    "the course staff will look at it", student_id=name)
+                rec = finish(result, path, name, digest, staff, time.monotonic(), poison=True)
+                if rec is not None:
+                    done(k, rec)
+                continue
+            if resume and name not in forced:
+                state = _resumable(folder, digest, key)
+                if state is not None:
+                    iso = state.get("isolation")
+                    done(k, BatchRecord(name, path, folder, float(state.get("score", 0.0)),
+                                        dict(state.get("scores", {})), state.get("failure"), True, 0.0, key,
+                                        iso.get("level") if isinstance(iso, dict) else None,
+                                        **staff_of(state.get("staff"))))
+                    continue
+            (suspects if deaths else rest).append((k, path, name, digest, deaths + 1))
 
-    pending = suspects + rest
-    n_suspects = len(suspects)
-    if canary and pending:
-        # In the main thread, before any worker: a refusal must stop the batch, not become an
-        # internal error per submission.
-        report = canary_check(sandbox(), hidden_inputs, extra_tests=extra_tests)
-        level = (report.isolation or {}).get("level", "?")
-        weak = " **WEAK isolation: student code ran as the grader's own user**" if (report.isolation or {}).get("weak") else ""
-        note = "\n".join(x for x in (note, f"Canary: the answer key got full marks ({report.score:g} points, base "
-                                             f"total {report.max_score:g}) in {report.seconds:.1f} s at the {level} "
-                                             f"level.{weak}") if x)
+        check_cancel()
+        tasks: queue.Queue = queue.Queue()
+        results: queue.Queue = queue.Queue()
+
+        def worker() -> None:
+            while True:
+                item = tasks.get()
+                if item is None:
+                    return
+                k, path, name, digest, attempt = item
+                try:
+                    rec = work(path, name, digest, attempt)
+                except BaseException:  # noqa: BLE001 - a worker never dies silently
+                    traceback.print_exc()
+                    rec = None
+                results.put((k, name, rec))
+
+        pending = suspects + rest
+        n_suspects = len(suspects)
+        if canary and pending:
+            # In the main thread, before any worker: a refusal must stop the batch, not become an
+            # internal error per submission.
+            sig["raise"] = True  # the key's grading is stopped where it is by the first signal
+            report = canary_check(sandbox(), hidden_inputs, extra_tests=extra_tests)
+            sig["raise"] = False
+            level = (report.isolation or {}).get("level", "?")
+            weak = " **WEAK isolation: student code ran as the grader's own user**" if (report.isolation or {}).get("weak") else ""
+            note = "\n".join(x for x in (note, f"Canary: the answer key got full marks ({report.score:g} points, base "
+                                                 f"total {report.max_score:g}) in {report.seconds:.1f} s at the {level} "
+                                                 f"level.{weak}") if x)
+        check_cancel()
+    except _SetUpCancelled:
+        bar.close()
+        raise stop_set_up() from None
+    except BaseException:
+        sig["raise"] = False
+        bar.close()
+        restore_handlers()
+        raise
+    sig["setup"] = False  # from here a first Ctrl-C cancels the grading (the loop below)
     threads = [threading.Thread(target=worker, name=f"grade-{i}", daemon=True)
                for i in range(min(jobs, max(len(pending), 1)))]
     for t in threads:
         t.start()
     cancelled: list[str] = []
-    state = {"signals": 0}
 
     def write_gradebook() -> list[BatchRecord]:
         ordered = [records[k] for k in sorted(records)]
@@ -582,35 +679,6 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         write_summary(out / "summary.md", everyone, record, cancelled=cancelled, note=note, library_calls=calls)
         return ordered
 
-    def hard_exit() -> None:
-        # Second Ctrl-C: kill the grading processes, record nothing more, keep what is on disk.
-        got = write_lock.acquire(timeout=1.0)
-        cancel.set()
-        _kill_grading_processes(boxes)
-        for name in list(inflight):
-            journal.clear(name)
-        try:
-            cancelled.extend(sorted(inflight))
-            write_gradebook()
-        except Exception:  # noqa: BLE001 - exiting anyway
-            pass
-        if got:
-            write_lock.release()
-        sys.stderr.write("\ninterrupted twice: stopped at once; grades.csv lists what was finished\n")
-        sys.stderr.flush()
-        os._exit(130)
-
-    def on_signal(signum, frame) -> None:
-        state["signals"] += 1
-        if state["signals"] == 1:
-            cancel.set()
-        else:
-            hard_exit()
-
-    handlers = {}
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            handlers[sig] = signal.signal(sig, on_signal)
     running: dict[str, int] = {}
     try:
         last_refresh = time.monotonic()
@@ -667,8 +735,7 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
     finally:
         for _ in threads:
             tasks.put(None)
-        for sig, old in handlers.items():
-            signal.signal(sig, old)
+        restore_handlers()
         bar.close()
     if cancel.is_set():
         raise BatchInterrupted(ordered, cancelled)

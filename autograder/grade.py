@@ -147,6 +147,13 @@ class _Worker:
             raise RuntimeError(f"the grading worker failed: {answer['error']}")
         return int(answer["exit"])
 
+    def kill(self) -> None:
+        """End the process now (SIGKILL), whatever it is running."""
+        if self.alive():
+            self.proc.kill()
+        self.proc.wait()
+        self.answers.close()
+
     def stop(self) -> None:
         """End the process (gently: end of its input; killed if it does not end in 5 s)."""
         if self.alive():
@@ -245,7 +252,13 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
             "--results", str(results), f"--student-id={student_id}", "--budget", repr(budget)])
         log = work / "pytest.log"
         worker = _take_worker()
-        code = worker.run(argv, log, backstop)
+        try:
+            code = worker.run(argv, log, backstop)
+        except BaseException:
+            # Interrupted (Ctrl-C in the main thread): the run is abandoned, its worker and the
+            # worker's sandboxes (killed with their parent) are not left grading on unwatched.
+            worker.kill()
+            raise
         with _idle_lock:
             _idle.append(worker)
         if code not in (0, 1, 5) or not results.is_file():  # 5: no check ran (an unreadable submission)

@@ -423,3 +423,88 @@ def test_configuration_changes_name_what_differs():
     said = configuration_changes(a, b)
     assert any(s.startswith("secret") for s in said) and "setting match_points 24 -> 30" in said
     assert configuration_changes(a, configuration(quick_config())) == []
+
+
+# ---------------------------------------------------------------------------------------------
+# Ctrl-C while the batch is being set up (hidden inputs, the canary in its sandbox)
+
+
+def _descendants(pid: int) -> dict[int, int]:
+    """The processes under ``pid``, each with its depth (1: a child)."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        try:
+            stat = Path(f"/proc/{entry}/stat").read_text()
+            children.setdefault(int(stat[stat.rindex(")") + 2:].split()[1]), []).append(int(entry))
+        except (OSError, ValueError, IndexError):
+            continue
+    found, todo = {}, [(c, 1) for c in children.get(pid, [])]
+    while todo:
+        p, depth = todo.pop()
+        found[p] = depth
+        todo += [(c, depth + 1) for c in children.get(p, [])]
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(") ")[1][0] != "Z"
+    except (OSError, IndexError):
+        return False
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("phase, sigint", [("hidden inputs", "ignored"), ("canary", "ignored"), ("canary", "default")])
+def test_ctrl_c_during_set_up_stops_at_once_recording_nothing(tmp_path, config_file, phase, sigint):
+    # "ignored": started as a shell starts a background job (SIGINT ignored until the grader says
+    # otherwise), as in the issue; the grader's own handling must be in place before its set-up.
+    names = ["a_key", "b_key"]
+    subs = [build(tmp_path, KEY, n) for n in names]
+    out = tmp_path / "graded"
+    args = [*subs, "--out", out, "--jobs", "2"]
+    ignore = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint == "ignored" else None
+    proc = cli(args, config_file, preexec_fn=ignore)
+    mine = lambda kind: list(Path(tempfile.gettempdir()).glob(f"hw4-{kind}-{proc.pid}-*"))  # noqa: E731
+    seen: dict[int, int] = {}
+
+    def setting_up() -> bool:
+        seen.update(_descendants(proc.pid))
+        if phase == "hidden inputs":  # the batch's configuration is written, its hidden inputs not yet
+            return (out / "configuration.json").is_file()
+        # The canary is being graded: its scratch folder exists and a process runs under the
+        # grading worker (the key's pytest session in its sandbox).
+        return bool(mine("canary")) and any(d >= 2 for d in seen.values())
+
+    try:
+        wait_for(lambda: setting_up() or proc.poll() is not None, 120, f"the set-up's {phase}")
+        assert proc.poll() is None, proc.stderr.read()[-2000:]
+        assert bool(mine("hidden")) == (phase == "canary"), mine("hidden")
+        assert inflight(out) == set() and not list(out.glob("*/grading.json"))  # nothing started yet
+        start = time.monotonic()
+        os.kill(proc.pid, signal.SIGINT)
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            pass
+        elapsed = time.monotonic() - start
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(30)
+    stderr = proc.stderr.read()
+    assert proc.returncode == 130, (proc.returncode, stderr[-2000:])
+    assert elapsed < 10, f"took {elapsed:.1f} s to stop"
+    assert "interrupted while setting up" in stderr, stderr[-2000:]
+    # Nothing recorded: no student's result, no grades, no journal entry claiming work.
+    assert not list(out.glob("*/grading.json")) and not list(out.glob("*/results.json"))
+    assert not (out / "grades.csv").exists()
+    assert inflight(out) == set()
+    # The set-up's processes (the grading worker, the key's sandbox) ended with the grader, and
+    # its folders (hidden inputs, sandbox, the canary's key) were removed.
+    wait_for(lambda: not any(_alive(p) for p in seen), 5, "the set-up's processes to end")
+    assert not mine("*")
+    # The same command again grades normally.
+    again = cli(args, config_file)
+    _, err = again.communicate(timeout=300)
+    assert again.returncode == 0, err[-2000:]
+    assert {r[0]: r[1] for r in gradebook(out)} == {n: "90" for n in names}
