@@ -6,7 +6,8 @@ next to the checks, which read them.  Tests prove each committed file equals a f
 computation (tests/test_matching_easy_points.py, tests/test_twisted_pair.py).
 
 - ``starter/checks/matching_goals.json``: Q4.1 and Q4.2's easy points of the public scene
-  (starter.checks._scenes.temple_scene) and the goals several correct matcher styles set on them
+  (the default data's scene, scenes.defaults.default_temple: a small public scene has too little
+  relief for a flat temple to be told from the true one) and the goals several correct matcher styles set on them
   (solutions.matching_styles);
 - ``starter/checks/twisted_pair.json``: Q3.3's twisted-pair case of the public seed
   (solutions.twisted_pair, made with working linear triangulations).
@@ -27,15 +28,16 @@ N_POINTS = 30
 
 
 def compute_goals() -> dict:
-    """The JSON-ready goals: rows (of templeCoords in the public scene), tol3d, ref_share, ref_share_3d, styles."""
+    """The JSON-ready goals: rows (of templeCoords in the public scene), tol3d, ref_share, ref_share_3d, flat_share_3d, styles."""
     from solutions.matching_styles import scene_problem
-    from starter.checks._scenes import PUBLIC_SEED, temple_scene
+    from scenes.defaults import TEMPLE_SEED, default_temple
 
-    rows, p = scene_problem(temple_scene(), N_POINTS, None)
-    return {"scene": f"starter.checks._scenes.temple_scene() (seed {PUBLIC_SEED})",
+    rows, p = scene_problem(default_temple(), N_POINTS, None)
+    return {"scene": f"scenes.defaults.default_temple() (seed {TEMPLE_SEED})",
             "rows": [int(r) for r in rows],
             "tol3d": [round(float(t), 9) for t in p.tol3d],
             "ref_share": round(p.ref_share, 9), "ref_share_3d": round(p.ref_share_3d, 9),
+            "flat_share_3d": round(p.flat_share_3d, 9),
             "styles": [[name, round(a, 9), round(b, 9)] for name, a, b in p.shares]}
 
 

@@ -246,6 +246,11 @@ class EasyProblem:
         cameras that lie on the structure (judging.correspondence.right_structure), and never
         above ref_share (a style whose matches are right as often may be expected to pass Q4.2).
     shares : ((style name, share, share 3D), ...) of every style, for the feedback and the report.
+    flat_share_3d : the share right_structure gives a flat temple: the points triangulated from
+        matches that keep (x1, y1), or that all move by the median true disparity (what a window
+        so wide that it sees only the whole object's shift finds).  Up to a similarity, such a
+        temple lies within tol3d of many points where the relief is small, so Q4.2 asks for more
+        (judging.correspondence.structure_goal).
     """
 
     index: np.ndarray
@@ -253,6 +258,7 @@ class EasyProblem:
     ref_share: float
     ref_share_3d: float
     shares: tuple
+    flat_share_3d: float = 0.0
 
 
 def surface_tolerance(C1, C2, F, truth2, tol: float, pts1) -> np.ndarray:
@@ -308,7 +314,9 @@ def easy_problem(im1, im2, F, pts1, truth2, truth3d, C1, C2, tol: float, count: 
             w[ok] = triangulate(C1, p1[ok], C2, f[ok])[0]
         shares.append((style.name, float(right_2d(f, t2, tol).mean()), float(right_structure(w, t3, tol3d)[0].mean())))
     ref_share = min(s[1] for s in shares)
-    return EasyProblem(index, tol3d, ref_share, min(ref_share, *(s[2] for s in shares)), tuple(shares))
+    flat = max(float(right_structure(triangulate(C1, p1, C2, p2)[0], t3, tol3d)[0].mean())
+               for p2 in (p1, p1 + np.median(t2 - p1, axis=0)))
+    return EasyProblem(index, tol3d, ref_share, min(ref_share, *(s[2] for s in shares)), tuple(shares), flat)
 
 
 # Points are chosen this far from the border in both images, so that a 101-px window fits.

@@ -197,7 +197,7 @@ def _five_argument_points(student, c, n, signature):
 
 def _structure(w, c):
     """The verdict of 3D points w (P, 3) of the case's easy points on its true structure."""
-    return jc.points3d(w, c.truth3d, c.tol3d, c.ref_share_3d, c.pts1)
+    return jc.points3d(w, c.truth3d, c.tol3d, c.ref_share_3d, c.pts1, flat_share=c.flat_share_3d)
 
 
 def _linear_error(C1, pts1, C2, pts2) -> float:

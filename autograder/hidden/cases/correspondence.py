@@ -35,6 +35,7 @@ class CorrespondenceCase:
     truth3d: np.ndarray = None   # (P, 3) the true points of pts1 (camera-1 frame)
     tol3d: np.ndarray = None     # (P,) their 3D tolerance (solutions.matching_styles.surface_tolerance)
     shares: tuple = ()           # ((style, share, share 3D), ...) the goal was set from
+    flat_share_3d: float = 0.0   # what a flat temple reaches on the structure (EasyProblem.flat_share_3d)
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,7 +53,8 @@ def _correspondence_case(key, label, scene, count, rng) -> CorrespondenceCase:
     p1 = np.column_stack([np.ravel(scene.x1), np.ravel(scene.y1)]).astype(float)
     return CorrespondenceCase(key, label, scene.im1, scene.im2, scene.F_true, p1[rows], scene.x2_true[rows],
                               scene.K1 @ M1, scene.K2 @ scene.M2, jc.tolerance(scene.width), easy.ref_share,
-                              easy.ref_share_3d, scene.X_coords[rows], easy.tol3d, easy.shares)
+                              easy.ref_share_3d, scene.X_coords[rows], easy.tol3d, easy.shares,
+                              easy.flat_share_3d)
 
 
 def matching_labels(config) -> list[str]:
