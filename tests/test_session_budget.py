@@ -58,6 +58,9 @@ def test_grading_gives_the_plugin_and_the_worker_the_grown_budget(hidden, monkey
             asked.append((float(argv[argv.index("--budget") + 1]), timeout))
             raise RuntimeError("recorded, not run")
 
+        def kill(self):   # a run that raised is abandoned with its worker
+            pass
+
     monkeypatch.setattr(grade, "_warm_worker", lambda: None)
     monkeypatch.setattr(grade, "_take_worker", Recorder)
     iso = Isolation("basic", None, False, False, False, (), weak=True)
