@@ -654,6 +654,12 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
             note = "\n".join(x for x in (note, f"Canary: the answer key got full marks ({report.score:g} points, base "
                                                  f"total {report.max_score:g}) in {report.seconds:.1f} s at the {level} "
                                                  f"level.{weak}") if x)
+            if level == "uid" and jobs > 1:
+                # Without namespaces, /dev/shm and other users' world-writable folders are shared:
+                # two submissions graded at the same time could pass each other files there.
+                jobs = 1
+                note += ("\nAt the uid level submissions are graded one at a time (--jobs was "
+                         "lowered to 1): two at once could exchange files through /dev/shm.")
         check_cancel()
     except _SetUpCancelled:
         bar.close()

@@ -36,7 +36,6 @@ import parallel
 import pytest
 import realstyles
 from realstyles import PROGRAMS, QUESTION_FUNCTIONS
-from realstyles import snippets as s
 
 pytestmark = pytest.mark.slow
 
@@ -80,30 +79,19 @@ def _known(channel, programs, questions, why) -> tuple[Known, ...]:
     return tuple(Known(channel, p, q, why) for p in programs for q in questions)
 
 
-_E22 = _using("essentialMatrix", s.ESS_E22)
-# compute3D_pts calling the program's findM2, which calls its essentialMatrix
-_E22_C3D = tuple(n for n in _E22 if PROGRAMS[n].pieces.get("compute3D_pts") in (s.C3D_FIVE_P, s.C3D_FIVE_M2_RESULT))
-_NONE = _using("compute3D_pts", None)
-
-# Found on base e878b8e (see the branch's report) and since; the lead empties these as the fixes
-# land.  Fixed and pruned: refineF on the raw 3x3 and refineF of the 9-vector lost Q2 under the
-# refineF switch; the course's helpers imported as util were not given; the self-checks called
-# only the kit's findM2 and compute3D_pts (judging.conventions now calls other years' as the
-# grader does).
+# Found on base e878b8e (see the branch's report) and since.  Fixed and pruned: refineF on the raw
+# 3x3 and refineF of the 9-vector lost Q2 under the refineF switch; the course's helpers imported
+# as util were not given; the self-checks called only the kit's findM2 and compute3D_pts
+# (judging.conventions now calls other years' as the grader does); E / E[2, 2] met scenes whose
+# cameras fixated a point (E[2, 2] = 0: scenes.envelope); a matcher keeping (x1, y1) kept Q4.2 (a
+# flat temple: judging.correspondence.structure_goal); the public Q4.2 check had nothing to call
+# without a compute3D_pts (it now judges the matcher and triangulate, as the grader does).
 KNOWN_WRONG: tuple[Known, ...] = (
-    *_known("hidden", _E22, ["Q3.1", "Q3.3"], "E / E[2, 2]: a hidden scene's true E has E[2, 2] = 0 (the scene "
-            "envelope must keep E[2, 2] away from zero)"),
+    # The one left: an optimiser capped at 500 iterations ends 11 % above the optimum on one hidden
+    # scene (goal: 10 %), where the public scene lets it converge.  Whether an unconverged
+    # minimize deserves Q5 in full is the instructor's call (judging.bundle.OPTIMUM_SLACK).
     *_known("hidden", ["y2023_per_part_nine_vector_refine_full"], ["Q5"],
-            "scipy.optimize.minimize, as the handout says, stops a hair above the optimum (2.46 vs goal 2.43 px^2)"),
-    *_known("hidden", ["y2025_notebook_matcher_returns_x1y1_loses_Q4_1_Q4_2"], ["Q4.2"],
-            "under sweep-secret-16 (on main too) the points triangulated from pts2 = pts1 pass Q4.2's structure "
-            "test: not investigated yet (judging.correspondence.points3d or that secret's temple scene)"),
-    # The public self-checks' generated pair has E[2, 2] = 0.
-    *_known("public", _E22, ["Q3.1", "Q3.3"], "E / E[2, 2]: the self-checks' generated pair has E[2, 2] = 0"),
-    *_known("public", _E22_C3D, ["Q4.2"], "E / E[2, 2]: compute3D_pts calls findM2, which calls essentialMatrix: "
-            "the self-checks' generated pair has E[2, 2] = 0"),
-    *_known("public", _NONE, ["Q4.2"], "no compute3D_pts (2018-21's Q4.2 was a script): the grader grades the "
-            "matcher and triangulate, the self-check has nothing to call"),
+            "scipy.optimize.minimize capped at 500 iterations stops above the optimum (2.46 vs goal 2.43 px^2)"),
 )
 
 
@@ -252,11 +240,14 @@ def _public(item):
     with loaded.active():
         for f in QUESTION_FUNCTIONS[q]:
             fn = loaded.functions.get(f)
-            if fn is None:
+            kwargs = {}
+            if fn is None and f == "compute3D_pts":  # 2018-21: judged through the matcher and triangulate
+                kwargs = {g: loaded.functions.get(g) for g in ("epipolarCorrespondence", "triangulate")}
+            if fn is None and not all(kwargs.values() or [False]):
                 passed, lines = False, lines + [f"{f} is not defined"]
                 continue
             try:
-                report = CHECKS[f](fn, verbose=False)
+                report = CHECKS[f](fn, verbose=False, **kwargs)
                 passed &= bool(report.passed)
                 lines += [f"{f}: {i}" for i in report.items if not getattr(i, "passed", True)][:3]
             except Exception as exc:  # noqa: BLE001 - a check that cannot run is a failed check

@@ -239,6 +239,7 @@ def test_uid_level_batch_leaves_nothing_and_keeps_concurrent_submissions_apart(t
         summary = (out / "summary.md").read_text()
         assert "## Past the sandbox's disk quota" in summary and "- fills_disk:" in summary
         assert "## Left in the shared temporary folders" in summary
+        assert "graded one at a time (--jobs was lowered to 1)" in summary   # /dev/shm is shared there
         for name in ("fills_disk", "fills_inodes"):
             feedback = (out / name / "feedback.md").read_text()
             assert "disk quota" in feedback and "removed" not in feedback

@@ -174,7 +174,9 @@ def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, epipolarCorresp
 
     Parameters
     ----------
-    compute3D_pts : the student's function, called as compute3D_pts(im1, im2, F, x1, y1, C1,
+    compute3D_pts : the student's function (None: a hand-in without one, as 2018-2021's whose
+        Q4.2 was a script: the points of epipolarCorrespondence and triangulate are judged, as
+        the grader does), called as compute3D_pts(im1, im2, F, x1, y1, C1,
         C2) with x1, y1 (N, 1) integer arrays like templeCoords.npz's; it returns w (N, 3) or
         (w, pts2) with pts2 (N, 2) the matches found.  2022-2024's compute3D_pts(temple_pts1,
         intrinsics, F, im1, im2), returning P (or P among the cameras), is called that way.
@@ -199,9 +201,18 @@ def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, epipolarCorresp
     scope = getattr(compute3D_pts, "__globals__", {})
     matcher = epipolarCorrespondence or scope.get("epipolarCorrespondence")
     triangulate = triangulate or scope.get("triangulate")
+    if compute3D_pts is None:
+        if not (callable(matcher) and callable(triangulate)):
+            report.add("compute3D_pts is defined", False, "no compute3D_pts, and no epipolarCorrespondence and "
+                                                           "triangulate to judge in its place")
+            return finish(report, verbose)
+        report.notes.append("no compute3D_pts: the points of your epipolarCorrespondence and triangulate are "
+                            "judged, as the grader does")
     for k, case in enumerate(todo):
         p1 = np.rint(np.asarray(case.pts1, float)).astype(np.uint16)
-        if five:
+        if compute3D_pts is None:
+            out = _pipeline_points(matcher, triangulate, case)
+        elif five:
             out, how = _five_argument_call(compute3D_pts, signature, case, len(p1))
         else:
             out = _explain_call_error(call(compute3D_pts, case.im1.copy(), case.im2.copy(), np.array(case.F, float),
