@@ -29,7 +29,8 @@ import numpy as np
 import pytest
 
 from autograder.review.fingerprint import Fingerprints, fingerprint_code
-from autograder.review.similarity import FLAG, _CONTAINMENT_DISCOUNT, MIN_SHARED, compare_function, given_hashes
+from autograder.review.similarity import (FLAG, _CONTAINMENT_DISCOUNT, MIN_SHARED, code_hashes, compare_function,
+                                         given_hashes)
 from core.manifest import QUESTIONS
 from core.paths import KIT_ROOT, NOTEBOOKS_DIR
 from core.shipping import STUDENT_NOTEBOOKS
@@ -145,14 +146,7 @@ def release_given(folders=None, notebooks=None) -> set:
     given = given_hashes(None, folders)
     for path in notebooks:
         for src in _notebook_sources(path):
-            try:
-                tree = ast.parse(src)
-            except SyntaxError:
-                continue
-            given.update(h for h, _ in fingerprint_code(tree).hashes)
-            for node in ast.walk(tree):
-                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                    given.update(h for h, _ in fingerprint_code(node).hashes)
+            given |= code_hashes(src)
     return given
 
 

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from core.untrusted import visible
 
-from .reader import _blank_magics, _cells, _files
+from .reader import _blank_magics, code_units
 
 __all__ = ["DEFAULT_LIBRARY_CALLS", "LibraryCall", "find_in_class", "find_in_sources", "find_library_calls",
            "library_names", "markdown_code"]
@@ -257,13 +257,7 @@ def find_in_sources(sources: Sequence[tuple[str, str]], names: dict[str, str] | 
 def find_library_calls(path: str | Path, names: dict[str, str] | None = None) -> tuple[list[LibraryCall], list[str]]:
     """(uses found, notes) in the submission at ``path`` (folder, .zip, .ipynb or .py), file by file."""
     found, notes = [], []
-    for filename, data in _files(Path(path)):
-        try:
-            sources = _cells(data, filename) if filename.endswith(".ipynb") else \
-                [(filename, data.decode("utf-8", errors="replace"))]
-        except (ValueError, UnicodeError) as exc:
-            notes.append(f"{filename} could not be read: {exc}")
-            continue
+    for _, sources in code_units(Path(path), notes):
         more, why = find_in_sources(sources, names)
         found += more
         notes += why

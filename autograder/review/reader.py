@@ -119,6 +119,19 @@ def _files(path: Path) -> list[tuple[str, bytes]]:
     raise ValueError(f"path: expected a folder, a .zip, a .ipynb or a .py, got {str(path)!r}")
 
 
+def code_units(path: Path, notes: list[str]):
+    """(file name, [(origin, source), ...]) of each file of the submission at ``path``: a
+    notebook's code cells, or a .py file whole; a file that cannot be read adds a line to ``notes``."""
+    for filename, data in _files(path):
+        try:
+            units = _cells(data, filename) if filename.endswith(".ipynb") else \
+                [(filename, data.decode("utf-8", errors="replace"))]
+        except (ValueError, UnicodeError) as exc:
+            notes.append(f"{filename} could not be read: {exc}")
+            continue
+        yield filename, units
+
+
 def read_submission(path: str | Path, name: str | None = None) -> SubmissionCode:
     """The homework functions of the submission at ``path`` (folder, .zip, .ipynb or .py).
 
@@ -132,13 +145,7 @@ def read_submission(path: str | Path, name: str | None = None) -> SubmissionCode
     # function -> (priority, order, FunctionSource); priority 1 when the file is the function's notebook.
     best: dict[str, tuple[int, int, FunctionSource]] = {}
     order = 0
-    for filename, data in _files(path):
-        try:
-            units = _cells(data, filename) if filename.endswith(".ipynb") else \
-                [(filename, data.decode("utf-8", errors="replace"))]
-        except (ValueError, UnicodeError) as exc:
-            notes.append(f"{filename} could not be read: {exc}")
-            continue
+    for filename, units in code_units(path, notes):
         key = _question_key(filename)
         for origin, src in units:
             try:

@@ -152,16 +152,22 @@ def given_hashes(notebooks_dir: str | Path | None = NOTEBOOKS_DIR,
         for p in sorted(Path(d).rglob("*.py")):
             sources.append(FunctionSource("<file>", p.read_text(errors="replace"), str(p), 1))
     for fs in sources:
-        try:
-            tree = ast.parse(fs.source)
-        except SyntaxError:
-            continue
-        given.update(h for h, _ in fingerprint_code(tree).hashes)
-        # a function of the handout also counts as written on its own (its names bound locally)
-        for node in ast.walk(tree):
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                given.update(h for h, _ in fingerprint_code(node).hashes)
+        given |= code_hashes(fs.source)
     return given
+
+
+def code_hashes(source: str) -> set[int]:
+    """Plain hashes of one piece of code (empty when it does not parse): the whole, and each of its
+    functions also as written on its own (its names bound locally)."""
+    try:
+        tree = ast.parse(source)
+    except SyntaxError:
+        return set()
+    out = {h for h, _ in fingerprint_code(tree).hashes}
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            out.update(h for h, _ in fingerprint_code(node).hashes)
+    return out
 
 
 def compare_function(function: str, items: Iterable[tuple[str, Fingerprints]]) -> FunctionComparison:
