@@ -188,3 +188,14 @@ def test_a_symbolic_link_in_a_zip_is_said_with_its_name_escaped(tmp_path):
     feedback = SubmissionResult((), "s", notes=tuple(notes)).feedback_markdown()
     page = Elements(render_markdown(feedback))
     assert "svg" not in {t for t, _ in page.tags} and "<svg onload=alert(1)>.py" in "".join(page.text)
+
+
+def test_a_feedback_line_of_student_text_carries_no_escape_sequence_or_control():
+    """Where the hidden tests take a student's message in (their own failure report in a TA's
+    terminal prints it), the escapes are gone and the controls shown, before any writer escapes it."""
+    from autograder.hidden.feedback import exception_sentence, tidy
+
+    for text in HOSTILE:
+        for line in (tidy(text), exception_sentence(f"ValueError: {text}")):
+            assert "\x1b" not in line and "\x9b" not in line, line
+            assert not any(unicodedata.category(c) in ("Cc", "Cf") for c in line), line

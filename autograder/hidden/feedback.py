@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from core.untrusted import visible
 from judging.hints import numpy2_hint
 from judging.verdict import Malformed, same_error
 
@@ -31,9 +32,12 @@ _EXCEPTION = re.compile(r"^(?P<type>[A-Za-z_][\w.]*)(?::\s?(?P<message>.*?))?(?:
 
 
 def tidy(message: str, limit: int = _MESSAGE_LIMIT) -> str:
-    """A line for feedback: long numbers shortened, runs of numbers and long tokens cut, one line,
-    at most ``limit`` characters."""
-    text = _NUMBER_RUN.sub("[numbers]", str(message))
+    """A line for feedback: escape sequences removed and controls shown (core.untrusted.visible),
+    long numbers shortened, runs of numbers and long tokens cut, one line, at most ``limit``
+    characters."""
+    # Student text first loses its escape sequences and shows its controls, so that no reader of
+    # it (pytest's own report in a TA's terminal too) meets them; each writer escapes it again.
+    text = _NUMBER_RUN.sub("[numbers]", visible(message, limit=10 * limit))
     text = _LONG_NUMBER.sub(lambda m: m.group(0)[: m.group(0).index(".") + 3], text)
     text = _LONG_TOKEN.sub(lambda m: m.group(0) if m.group(0).endswith((".ipynb", ".py")) else "[...]", text)
     text = " ".join(text.split())
