@@ -194,7 +194,7 @@ def test_fd_leaking_matcher_costs_no_other_question_at_the_namespaces_level(tmp_
 @pytest.mark.slow
 def test_uid_level_batch_leaves_nothing_and_keeps_concurrent_submissions_apart(tmp_path, public_python):
     subs = tmp_path / "subs"
-    # The colluding pair sorts first, so that the batch's two workers load them at the same time.
+    # The colluding pair sorts first, so that two workers would load them at the same time.
     pair = [key_with(subs / f"colluder_{k}", "q2_eightpoint", hostile.COLLUDES, base="student") for k in (1, 2)]
     disk = key_with(subs / "fills_disk", "q3_metric_reconstruction", hostile.fills_disk(), base="student")
     inodes = key_with(subs / "fills_inodes", "q3_metric_reconstruction", hostile.fills_inodes(), base="student")
@@ -211,8 +211,9 @@ def test_uid_level_batch_leaves_nothing_and_keeps_concurrent_submissions_apart(t
                   for p in [*pair, disk, inodes, leaker, lister]}
         uids = {name: s["isolation"]["uid"] for name, s in states.items()}
         assert {s["isolation"]["level"] for s in states.values()} == {"uid"}
-        # Two sandboxes at once, two uids of their own (neither the grader's nor root).
-        assert uids["colluder_1"] != uids["colluder_2"] and not {0, os.getuid()} & set(uids.values())
+        # Uids of their own (neither the grader's nor root).  --jobs 2 was lowered to 1 at this level
+        # (summary.md, below): the pair never ran at the same time, whatever they tried.
+        assert not {0, os.getuid()} & set(uids.values())
 
         # Nothing of theirs is left in /tmp, /var/tmp, /dev/shm or /run/lock.
         assert owned_by(set(uids.values())) == []
