@@ -32,7 +32,7 @@ from pathlib import Path
 import nbformat
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
 
-__all__ = ["CASES", "Case", "build", "key_cell"]
+__all__ = ["CASES", "Case", "build", "key_cell", "write_hand_in"]
 
 HOMEWORK = ("eightpoint", "essentialMatrix", "triangulate", "findM2", "epipolarCorrespondence",
             "compute3D_pts", "rodriguesResidual", "bundleAdjustment", "MultiviewReconstruction",
@@ -243,11 +243,15 @@ CASES: dict[str, Case] = {
 def build(name: str, folder: str | Path) -> Path:
     """Write the hand-in ``name`` into ``folder/name/`` (its files, or its zip) and return its path."""
     case = CASES[name]
-    root = Path(folder) / name
+    return write_hand_in(Path(folder) / name, case.files(), case.archive)
+
+
+def write_hand_in(root: Path, files: dict, archive: str | None = None) -> Path:
+    """Write ``files`` (relative path -> bytes or str) under ``root``, or into the zip ``root/archive``
+    when one is named; return the folder or the zip."""
     root.mkdir(parents=True, exist_ok=True)
-    files = case.files()
-    if case.archive:
-        path = root / case.archive
+    if archive:
+        path = root / archive
         with zipfile.ZipFile(path, "w") as zf:
             for rel, data in files.items():
                 zf.writestr(rel, data)
@@ -255,5 +259,5 @@ def build(name: str, folder: str | Path) -> Path:
     for rel, data in files.items():
         p = root / rel
         p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_bytes(data)
+        p.write_bytes(data if isinstance(data, bytes) else data.encode())
     return root

@@ -64,7 +64,6 @@ from __future__ import annotations
 import contextlib
 import sys
 import types
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -357,20 +356,10 @@ def files(name: str) -> tuple[dict[str, bytes], str | None]:
 
 def build(name: str, folder: str | Path) -> Path:
     """Write program ``name`` into ``folder/name/`` (its files, or its zip) and return its path."""
+    from handin_layouts import write_hand_in
+
     data, archive = files(name)
-    root = Path(folder) / name
-    root.mkdir(parents=True, exist_ok=True)
-    if archive:
-        path = root / archive
-        with zipfile.ZipFile(path, "w") as zf:
-            for rel, blob in data.items():
-                zf.writestr(rel, blob)
-        return path
-    for rel, blob in data.items():
-        target = root / rel
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(blob)
-    return root
+    return write_hand_in(Path(folder) / name, data, archive)
 
 
 # --------------------------------------------------------------------------------- loading here
