@@ -21,7 +21,13 @@ from .verdict import Malformed, Verdict, fmt, log_score, read_array, read_number
 __all__ = ["OPTIMUM_SLACK", "SHAPE_RTOL", "handout_residuals", "read_ba", "read_residuals", "reported_errors",
            "residuals", "result", "result_goal", "rotation", "total_error"]
 
-OPTIMUM_SLACK = 1.1    # full marks within 10 % of the optimum's error (plus 0.05 px^2)
+# Full marks within half again of the optimum's error (plus 0.05 px^2).  Why 1.5: an optimiser
+# run to convergence reaches the optimum (minimize's defaults: 1.000 on every sweep problem); one
+# the student stopped early (minimize capped at 500 iterations, a habit of real hand-ins) ends up
+# to 1.35 times above it, which the handout's "may differ slightly" allows; leaving a block out
+# (points only, camera only) ends at least 2.3 times above.  ``python benchmarks/bundle_goal.py``
+# measures all three on the sweep's hidden problems.
+OPTIMUM_SLACK = 1.5
 SHAPE_RTOL = 0.25      # the aligned reconstruction stays within 25 % of the start's size of the start
 RES_RTOL = 1e-6        # residuals equal the handout's to this share of their largest value (at least 1 px)
 
