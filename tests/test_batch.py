@@ -33,7 +33,7 @@ from autograder.regrade import accept, diff_folders
 from autograder.sandbox import ResourceLimits, Sandbox
 from core.text import points
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 KEY = "key_full_marks"
 TRANSPOSED = "transposed_F_loses_Q2"

@@ -31,7 +31,7 @@ import pytest
 
 from corpus import hostile
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 DOCKER_CAPS = ("-all,+chown,+dac_override,+fowner,+fsetid,+kill,+setgid,+setuid,+setpcap,+net_bind_service,"
                "+net_raw,+sys_chroot,+mknod,+audit_write,+setfcap")
 PUBLIC_PYTHON = Path("/usr/bin/python3")

@@ -6,7 +6,6 @@ import base64
 import io
 import itertools
 import sys
-from pathlib import Path
 
 import matplotlib.image
 import numpy as np
@@ -17,7 +16,7 @@ from starter.figures import Figure3D, plot_points_3d, plotly_cdn_url
 from starter.keypoints import plot_3d_keypoint, plot_3d_keypoint_frames, visualize_keypoints
 from core.skeleton import CAR_SKELETON
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 PLOTLY_MIME = "application/vnd.plotly.v1+json"
 
 

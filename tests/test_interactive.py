@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import base64
 import warnings
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -21,7 +20,7 @@ from starter.interactive import (
     epipolarMatchGUI,
 )
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 W, H = 160, 120
 
 

@@ -26,7 +26,7 @@ from kit.release import RELEASE_TOP, leaks, reference_bodies, release_packages, 
 from scenes.cameras import project
 from starter.notebook_import import from_notebook, notebook_definitions, try_run
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 ALL_FUNCTIONS = [f for q in QUESTIONS for f in q.functions]
 
 

@@ -26,7 +26,7 @@ from core.manifest import QUESTIONS
 from judging.mistakes import KNOWN_MISTAKES
 from kit import notebooks as nbk
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 ALL_FUNCTIONS = [f for q in QUESTIONS for f in q.functions]
 
 # The handout's signatures (hw4 handout, "with the signature ..."); functions it names without a

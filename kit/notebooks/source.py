@@ -13,7 +13,7 @@ from pathlib import Path
 
 from core.manifest import QUESTION_HEADING, QUESTIONS, Question
 
-KIT_ROOT = Path(__file__).resolve().parents[2]
+from core.paths import KIT_ROOT
 SRC_DIR = KIT_ROOT / "notebooks" / "src"
 SOLUTIONS_DIR = KIT_ROOT / "solutions"
 
