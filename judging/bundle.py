@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.geometry import IDENTITY_POSE, camera_center, project, similarity_align
-from starter.rotations import rodrigues
+from core.rotations import rodrigues
 
 from .mistakes import ba_mistakes, error_not_sum_of_squares, mistake, residual_layout
 from .pose import is_rotation

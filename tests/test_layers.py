@@ -15,19 +15,48 @@ import pytest
 
 from core.paths import KIT_ROOT
 
-# (layer, package); a dotted package is its own layer apart from its parent.
+# (layer, package): one top-level package per row, each package whole (its subpackages too) at
+# one layer (test_each_package_is_at_one_layer).  starter and its self-checks (starter.checks)
+# are one layer above judging: the helpers judging needs (rodrigues, camera2) live in core.
 LAYERS: tuple[tuple[int, str], ...] = (
     (0, "core"),
     (1, "scenes"),
-    (2, "starter"),
-    (3, "judging"),
-    (4, "starter.checks"),
+    (2, "judging"),
+    (3, "starter"),
     (4, "handin"),
     (5, "solutions"),
     (6, "kit"),
     (7, "autograder"),
 )
 PACKAGES = sorted({name.split(".")[0] for _, name in LAYERS})
+
+
+def split_packages(layers) -> list[str]:
+    """The top-level packages that ``layers`` puts at more than one layer, or that have a dotted row.
+
+    A package split across layers (as ``starter`` and ``starter.checks`` once were, on either side
+    of ``judging``) makes importing the lower half load the upper one's ``__init__``.
+    """
+    rows: dict[str, set[int]] = {}
+    dotted = set()
+    for layer, name in layers:
+        top = name.split(".")[0]
+        rows.setdefault(top, set()).add(layer)
+        if "." in name:
+            dotted.add(top)
+    return sorted(top for top, at in rows.items() if len(at) > 1 or top in dotted)
+
+
+def test_each_package_is_at_one_layer():
+    assert split_packages(LAYERS) == [], f"packages split across layers: {split_packages(LAYERS)}"
+    assert len(PACKAGES) == len(LAYERS)
+
+
+@pytest.mark.parametrize("layers", [((2, "starter"), (4, "starter.checks"), (3, "judging")),
+                                    ((2, "starter"), (2, "starter.checks")),
+                                    ((2, "starter"), (3, "starter"))])
+def test_a_split_package_is_seen(layers):
+    assert split_packages(layers) == ["starter"]
 
 
 def package_of(module: str) -> tuple[int, str] | None:
@@ -155,7 +184,26 @@ def test_no_circle_between_modules():
     assert not circles, "import circles:\n" + "\n".join(circles)
 
 
-@pytest.mark.parametrize("module, layer", [("core.geometry", 0), ("starter.checks.fundamental", 4),
-                                           ("starter.epipolar", 2), ("autograder.hidden.x", 7)])
+@pytest.mark.parametrize("module, layer", [("core.geometry", 0), ("core.rotations", 0), ("judging.bundle", 2),
+                                           ("starter.checks.fundamental", 3), ("starter.epipolar", 3),
+                                           ("autograder.hidden.x", 7)])
 def test_package_of(module, layer):
     assert package_of(module)[0] == layer
+
+
+def test_judging_and_core_load_neither_starter_nor_scipy():
+    """Importing every module of core and judging loads no starter (a higher layer) and no scipy.
+
+    core.rotations imports scipy inside its functions only; the judgments run in every hidden
+    test and self-check, and the sandbox's children import core before any student code.
+    """
+    import subprocess
+    import sys
+
+    modules = sorted(module_name(p) for pkg in ("core", "judging") for p in (KIT_ROOT / pkg).rglob("*.py")
+                     if "__pycache__" not in p.parts)
+    code = ("import importlib, sys\n"
+            f"for m in {modules!r}:\n    importlib.import_module(m)\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'starter', 'scipy'}))\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=KIT_ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr
