@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from core.geometry import epipolar_distances, skew
+from core.paths import KIT_ROOT
 from core.validate import DegenerateInputError
 from starter.interactive import (
     EpipolarApp,
@@ -20,7 +21,6 @@ from starter.interactive import (
     epipolarMatchGUI,
 )
 
-from core.paths import KIT_ROOT
 W, H = 160, 120
 
 

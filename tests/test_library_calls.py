@@ -16,8 +16,8 @@ from autograder.gradebook import BatchRecord, write_summary
 from autograder.results import QuestionResult, SubmissionResult, TestResult
 from autograder.review.__main__ import main
 from autograder.review.library_calls import find_in_class, find_library_calls
-
 from core.paths import KIT_ROOT
+
 KEY = KIT_ROOT / "notebooks" / "key"
 
 # cells a student adds to the key's notebooks: OpenCV does the eight-point algorithm and triangulation
