@@ -16,7 +16,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from core.geometry import CameraPair
+from core.geometry import CameraPair, eightpoint_scale
 
 __all__ = [
     "PUBLIC_SEED",
@@ -52,7 +52,7 @@ class NoisyPair:
 
 def noisy_pair(scene) -> NoisyPair:
     """The NoisyPair of a TempleScene (its cameras, true points and stored uint16 matches)."""
-    return NoisyPair(scene.pair, np.asarray(scene.pts1), np.asarray(scene.pts2), float(scene.M))
+    return NoisyPair(scene.pair, np.asarray(scene.pts1), np.asarray(scene.pts2), scene.M)
 
 
 @lru_cache(maxsize=1)
@@ -79,7 +79,7 @@ def two_view() -> NoisyPair:
     def stored(p):
         return np.rint(p + rng.normal(0.0, _NOISE_PX, p.shape)).astype(np.uint16)
 
-    return NoisyPair(pair, stored(pair.pts1), stored(pair.pts2), 640.0)
+    return NoisyPair(pair, stored(pair.pts1), stored(pair.pts2), eightpoint_scale(640, 480))
 
 
 @lru_cache(maxsize=1)
