@@ -1,4 +1,4 @@
-"""Tests of the synthetic problem-6 scene (scenes/car.py, scenes/painter.py)."""
+"""Tests of the synthetic problem-6 scene (scenes/car/, scenes/painter.py)."""
 
 from __future__ import annotations
 
