@@ -28,8 +28,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(KIT_ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
 
 from autograder import gradescope  # noqa: E402
 from tests import corpus  # noqa: E402

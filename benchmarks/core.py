@@ -23,8 +23,8 @@ for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
+from core.paths import course_data_dir  # noqa: E402
 
 
 def median_time(fn, repeat: int) -> float:
@@ -52,8 +52,8 @@ def main(argv=None) -> int:
     from solutions.bundle import rodriguesResidual
     from starter import invRodrigues, load_temple, ransacF
 
-    official = ROOT.parent / "shared" / "course-data"
-    data = args.data or (official if (official / "temple").is_dir() else None)
+    official = course_data_dir()
+    data = args.data or (official if official is not None and (official / "temple").is_dir() else None)
     d = load_temple(data)
     print(f"data: {d.folder}; numpy {np.__version__}, OpenCV {cv2.__version__}; median of {args.repeat} runs")
     M1 = np.hstack([np.eye(3), np.zeros((3, 1))])

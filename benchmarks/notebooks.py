@@ -17,7 +17,8 @@ from pathlib import Path
 import nbformat
 from nbclient import NotebookClient
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
+from core.paths import DATA_DIR, KIT_ROOT  # noqa: E402
 
 
 def run(nb, folder: Path) -> float:
@@ -28,10 +29,10 @@ def run(nb, folder: Path) -> float:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", default=str(ROOT / "data"))
+    ap.add_argument("--data", default=str(DATA_DIR))
     args = ap.parse_args(argv)
     os.environ["HW4_DATA"] = args.data
-    key = ROOT / "notebooks" / "key"
+    key = KIT_ROOT / "notebooks" / "key"
     baseline_nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("import starter, numpy, scipy, matplotlib")])
     base = run(baseline_nb, key)
     print(f"{'notebook':<32}{'seconds':>10}{'x kernel start':>16}")

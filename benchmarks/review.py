@@ -27,8 +27,8 @@ import numpy as np
 for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(var, "1")
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
+from core.paths import KIT_ROOT  # noqa: E402
 
 MISTAKES = {"Q2": ["F transposed", "rank 2 not enforced", "F not unscaled"], "Q3.1": ["K1 and K2 swapped in E"],
             "Q3.2": ["error not the sum of squares"], "Q3.3": ["wrong camera of the four"],
@@ -55,7 +55,7 @@ def make_submissions(folder: Path, count: int, rng: np.random.Generator) -> list
     from autograder.review.reader import FUNCTIONS, read_submission
 
     pools: dict[str, list[str]] = {f: [] for f in FUNCTIONS}
-    for src in [ROOT / "notebooks" / "key", *sorted((ROOT / "tests" / "review_corpus").glob("*.py"))]:
+    for src in [KIT_ROOT / "notebooks" / "key", *sorted((KIT_ROOT / "tests" / "review_corpus").glob("*.py"))]:
         for f, fs in read_submission(src).functions.items():
             pools[f].append(fs.source)
     paths = []
@@ -128,13 +128,13 @@ def main(argv=None) -> int:
               f"{sum(bool(calls) for calls, _ in found.values())} with calls")
         if args.grade:
             key = subprocess.run([sys.executable, "-m", "autograder", "key", "--out", str(base / "key")], check=False,
-                           cwd=ROOT, capture_output=True, text=True)
+                           cwd=KIT_ROOT, capture_output=True, text=True)
             if key.returncode != 0:
                 print("grading not timed: python -m autograder key failed:", key.stderr.strip().splitlines()[-1:])
                 return 0
             t0 = time.perf_counter()
             subprocess.run([sys.executable, "-m", "autograder", "grade", str(base / "key" / "hw4_key.zip"),
-                            "--out", str(base / "key_graded"), "--quiet"], check=True, cwd=ROOT)
+                            "--out", str(base / "key_graded"), "--quiet"], check=True, cwd=KIT_ROOT)
             one = time.perf_counter() - t0
             print(f"grading the answer key once: {one:.1f} s, so about {one * args.count / 60:.0f} min for "
                   f"{args.count} submissions one at a time")

@@ -24,6 +24,7 @@ __all__ = [
     "CameraPair",
     "IDENTITY_POSE",
     "depths",
+    "eightpoint_scale",
     "camera_center",
     "enforce_rank2",
     "essential_from_pose",
@@ -39,6 +40,15 @@ __all__ = [
 
 IDENTITY_POSE = np.hstack([np.eye(3), np.zeros((3, 1))])
 IDENTITY_POSE.flags.writeable = False
+
+
+def eightpoint_scale(width, height) -> float:
+    """The homework's scale M = max(width, height) of an image (pixels), as a float.
+
+    ``eightpoint(pts1, pts2, M)`` divides the pixel coordinates by M.  For an image array of
+    shape (height, width[, channels]): ``eightpoint_scale(shape[1], shape[0])``.
+    """
+    return float(max(width, height))
 
 
 def homogeneous(pts) -> np.ndarray:

@@ -8,5 +8,5 @@
   handin.mathjax           a local MathJax for offline math
   handin.hand_in_notebook  the hand-in notebook (notebooks/hand_in.ipynb) that runs the above in Colab
 
-Layer 4: imports only ``core``.
+Layer 4: imports ``core`` and ``starter`` (its notebook reader).
 """

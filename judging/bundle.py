@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.geometry import IDENTITY_POSE, camera_center, project, similarity_align
-from starter.rotations import rodrigues
+from core.rotations import rodrigues
 
 from .mistakes import ba_mistakes, error_not_sum_of_squares, mistake, residual_layout
 from .pose import is_rotation
@@ -33,7 +33,15 @@ RES_RTOL = 1e-6        # residuals equal the handout's to this share of their la
 
 
 def handout_residuals(K1, M1, p1, K2, p2, x) -> np.ndarray:
-    """The contract's residuals (4N,): [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()] at x = [w.ravel(), r2, t2]."""
+    """The contract's residuals (4N,): [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()] at x = [w.ravel(), r2, t2].
+
+    K1, K2 (3, 3); M1 (3, 4) = [R | t] of camera 1; p1, p2 (N, 2) pixels (x, y); x (3N + 6,):
+    the N points w (x y z each), camera 2's Rodrigues vector r2 and translation t2, M2 =
+    [rodrigues(r2) | t2].  The one home of the bundle-adjustment residual for the judgments and
+    the hidden tests' optimum (``autograder.hidden.cases.bundle``).  ``solutions.bundle`` writes
+    its own (``rodriguesResidual``), because the answer key prints that body; a test holds the two
+    equal (tests/test_one_home.py).  No input checks: callers pass well-formed arrays.
+    """
     p1, p2, x = np.asarray(p1, float), np.asarray(p2, float), np.asarray(x, float).ravel()
     n = len(p1)
     w = x[:3 * n].reshape(n, 3)

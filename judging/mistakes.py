@@ -18,7 +18,7 @@ from itertools import combinations
 import numpy as np
 
 from core.geometry import depths, skew, symmetric_epipolar_distances
-from starter.pose import camera2
+from core.pose import camera2
 
 __all__ = [
     "KNOWN_MISTAKES",

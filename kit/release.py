@@ -32,7 +32,7 @@ from core.shipping import DATA_EXCLUDE, NEVER_TO_STUDENTS, STUDENT_OPTIONAL_PACK
 
 __all__ = ["RELEASE_TOP", "leaks", "reference_bodies", "release_packages", "write_release"]
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 
 
 def release_packages(kit_root: Path = KIT_ROOT) -> tuple[str, ...]:

@@ -10,7 +10,9 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-__all__ = ["TEMPLE_SEED", "CAR_SEED", "default_temple", "default_car", "write_default_data", "DATA_DIR"]
+from core.paths import DATA_DIR
+
+__all__ = ["TEMPLE_SEED", "CAR_SEED", "default_temple", "default_car", "write_default_data"]
 
 # The temple seed is chosen, not arbitrary: the linear eight-point figures are a lottery on the
 # stored points' rounding (seeds 0-74 give reprojection errors of 94 to 11600 without refineF,
@@ -25,7 +27,6 @@ __all__ = ["TEMPLE_SEED", "CAR_SEED", "default_temple", "default_car", "write_de
 # chosen after camera 2's toe (scenes.temple._poses) changed every scene; seed 0 before it.
 TEMPLE_SEED = 75
 CAR_SEED = 0
-DATA_DIR = Path(__file__).resolve().parents[1] / "data"
 
 
 @lru_cache(maxsize=1)

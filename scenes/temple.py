@@ -38,6 +38,7 @@ from core.geometry import (
     CameraPair,
     camera_center,
     depths,
+    eightpoint_scale,
     epipolar_distances,
     essential_from_pose,
     fundamental_from_pose,
@@ -199,9 +200,9 @@ class TempleScene:
         return fundamental_from_pose(self.K1, self.K2, self.M2)
 
     @property
-    def M(self) -> int:
-        """The homework's scale parameter: max(width, height)."""
-        return max(self.width, self.height)
+    def M(self) -> float:
+        """The homework's scale parameter: max(width, height) (``core.geometry.eightpoint_scale``)."""
+        return eightpoint_scale(self.width, self.height)
 
 
 # ----------------------------------------------------------------------------- geometry

@@ -1,4 +1,11 @@
-"""Q5: bundle adjustment of camera 2 and the points, rotation parameterised by a Rodrigues vector."""
+"""Q5: bundle adjustment of camera 2 and the points, rotation parameterised by a Rodrigues vector.
+
+The residual is written out here (``rodriguesResidual`` and its helper ``_residuals``) rather
+than imported, because the answer key prints these bodies (kit/notebooks copies a reference
+function with its helpers).  Everything else that needs the residual (the judgments, the hidden
+tests' optimum) uses ``judging.bundle.handout_residuals``; tests/test_one_home.py holds the two
+equal.
+"""
 
 from __future__ import annotations
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from core.geometry import eightpoint_scale
 from core.paths import data_root
 
 __all__ = ["data_root", "TempleData", "CarFrame", "load_temple", "load_car_frame", "car_times", "load_image",
@@ -100,8 +101,8 @@ class TempleData:
 
     @property
     def M(self) -> float:
-        """The eight-point scale: the larger of the image's width and height."""
-        return float(max(self.im1.shape[:2]))
+        """The eight-point scale: the larger of the image's width and height (``core.geometry.eightpoint_scale``)."""
+        return eightpoint_scale(self.im1.shape[1], self.im1.shape[0])
 
 
 def load_temple(root: str | os.PathLike | None = None) -> TempleData:

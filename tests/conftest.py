@@ -2,26 +2,20 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
-
-
-def course_data_dir() -> Path:
-    """../shared/course-data beside the kit, or $HW4_COURSE_DATA."""
-    env = os.environ.get("HW4_COURSE_DATA")
-    return Path(env) if env else KIT_ROOT.parent / "shared" / "course-data"
+from core.paths import course_data_dir
 
 
 @pytest.fixture(scope="session")
 def course_data() -> Path:
+    """The official course data (``core.paths.course_data_dir``); the test is skipped without its temple."""
     path = course_data_dir()
-    if not (path / "temple" / "some_corresp.npz").exists():
-        pytest.skip(f"official course data not found at {path} (set HW4_COURSE_DATA to use it)")
+    if path is None or not (path / "temple" / "some_corresp.npz").exists():
+        pytest.skip("official course data not found (put it at ../shared/course-data or set HW4_COURSE_DATA)")
     return path
 
 

@@ -26,8 +26,8 @@ import pytest
 from autograder.sandbox import ResourceLimits, Sandbox, live_pids_of_uid
 from core import wire
 from autograder.submission import parse_cells
+from core.paths import KIT_ROOT
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 
 

@@ -31,9 +31,9 @@ from autograder.batch import ConfigurationMismatch, grade_batch
 from autograder.config import configuration_changes, load_config, quick_config
 from autograder.regrade import accept, diff_folders
 from autograder.sandbox import ResourceLimits, Sandbox
+from core.paths import KIT_ROOT
 from core.text import points
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 KEY = "key_full_marks"
 TRANSPOSED = "transposed_F_loses_Q2"

@@ -32,9 +32,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from core.paths import KIT_ROOT
+
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 W, H = 160, 120
 SERVER_LIFETIME_S = 300  # hard cap on the server, whatever happens to this process
 STEP_TIMEOUT_MS = 120_000

@@ -26,8 +26,8 @@ from autograder.results import autograded_question_ids
 from tests import corpus
 from tests.gradescope_like import unpack
 from tests.test_gradescope import run_autograder
+from core.paths import KIT_ROOT
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 SECRET = "channels-test-secret-6071"
 FIVE = ("key_full_marks", "untouched_student_zero", "transposed_F_loses_Q2",
         "x_and_y_swapped_matches_lose_Q4_1_and_Q4_2", "hartley_normalisation_full_marks")

@@ -476,18 +476,18 @@ def test_the_catalogue_is_complete_and_strict():
 
 
 def test_checks_never_import_the_solutions():
-    import pathlib
+    from core.paths import KIT_ROOT
 
-    for path in pathlib.Path(__file__).resolve().parents[1].joinpath("starter", "checks").glob("*.py"):
+    for path in KIT_ROOT.joinpath("starter", "checks").glob("*.py"):
         text = path.read_text()
         assert "import solutions" not in text and "from solutions" not in text, path.name
 
 
 def test_checks_never_use_opencv():
     """The self-checks say the same with and without OpenCV (Colab has it, a local install may not)."""
-    import pathlib
     import re
 
-    root = pathlib.Path(__file__).resolve().parents[1]
+    from core.paths import KIT_ROOT as root
+
     for path in [*root.joinpath("starter", "checks").glob("*.py"), *root.joinpath("judging").glob("*.py")]:
         assert not re.search(r"\bcv2\b", path.read_text()), path.name

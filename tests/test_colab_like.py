@@ -33,10 +33,10 @@ import nbformat
 import pytest
 
 from core.manifest import NOTEBOOKS
+from core.paths import KIT_ROOT
 
 pytestmark = pytest.mark.slow
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 COLAB_VENV = Path(os.environ.get("HW4_COLAB_VENV") or KIT_ROOT / "build" / "colab-venv")
 # Colab's versions of what the kit relies on; anywidget is absent there.
 COLAB_PINS = ("ipywidgets==7.7.*", "numpy==2.0.*")

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scenes.defaults import DATA_DIR, write_default_data
+from core.paths import DATA_DIR
+from scenes.defaults import write_default_data
 from starter import car_times, load_car_frame, load_temple
 from starter.data import load_image
 

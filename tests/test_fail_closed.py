@@ -30,8 +30,8 @@ import nbformat
 import pytest
 
 from corpus import hostile
+from core.paths import KIT_ROOT
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 DOCKER_CAPS = ("-all,+chown,+dac_override,+fowner,+fsetid,+kill,+setgid,+setuid,+setpcap,+net_bind_service,"
                "+net_raw,+sys_chroot,+mknod,+audit_write,+setfcap")
 PUBLIC_PYTHON = Path("/usr/bin/python3")

@@ -6,7 +6,6 @@ import base64
 import io
 import itertools
 import sys
-from pathlib import Path
 
 import matplotlib.image
 import numpy as np
@@ -15,9 +14,9 @@ from matplotlib.figure import Figure
 
 from starter.figures import Figure3D, plot_points_3d, plotly_cdn_url
 from starter.keypoints import plot_3d_keypoint, plot_3d_keypoint_frames, visualize_keypoints
+from core.paths import KIT_ROOT
 from core.skeleton import CAR_SKELETON
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 PLOTLY_MIME = "application/vnd.plotly.v1+json"
 
 

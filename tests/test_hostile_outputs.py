@@ -40,9 +40,9 @@ from corpus.hostile import HOSTILE_TEXTS, UNDECODABLE_NAME
 
 from autograder.config import quick_config
 from core.manifest import NOTEBOOKS
+from core.paths import KIT_ROOT
 from judging.mistakes import KNOWN_MISTAKES
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 FULL = 90.0
 FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 # The kit's own elements in its Markdown (headings, the summary's bold, notes and checks as lists,

@@ -14,14 +14,13 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
 from autograder.config import quick_config
 from autograder.key import write_key_submission
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 
 NEW_CHECK = '''
 import numpy as np

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import base64
 import warnings
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from core.geometry import epipolar_distances, skew
+from core.paths import KIT_ROOT
 from core.validate import DegenerateInputError
 from starter.interactive import (
     EpipolarApp,
@@ -21,7 +21,6 @@ from starter.interactive import (
     epipolarMatchGUI,
 )
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 W, H = 160, 120
 
 

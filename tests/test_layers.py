@@ -13,21 +13,50 @@ from pathlib import Path
 
 import pytest
 
-KIT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 
-# (layer, package); a dotted package is its own layer apart from its parent.
+# (layer, package): one top-level package per row, each package whole (its subpackages too) at
+# one layer (test_each_package_is_at_one_layer).  starter and its self-checks (starter.checks)
+# are one layer above judging: the helpers judging needs (rodrigues, camera2) live in core.
 LAYERS: tuple[tuple[int, str], ...] = (
     (0, "core"),
     (1, "scenes"),
-    (2, "starter"),
-    (3, "judging"),
-    (4, "starter.checks"),
+    (2, "judging"),
+    (3, "starter"),
     (4, "handin"),
     (5, "solutions"),
     (6, "kit"),
     (7, "autograder"),
 )
 PACKAGES = sorted({name.split(".")[0] for _, name in LAYERS})
+
+
+def split_packages(layers) -> list[str]:
+    """The top-level packages that ``layers`` puts at more than one layer, or that have a dotted row.
+
+    A package split across layers (as ``starter`` and ``starter.checks`` once were, on either side
+    of ``judging``) makes importing the lower half load the upper one's ``__init__``.
+    """
+    rows: dict[str, set[int]] = {}
+    dotted = set()
+    for layer, name in layers:
+        top = name.split(".")[0]
+        rows.setdefault(top, set()).add(layer)
+        if "." in name:
+            dotted.add(top)
+    return sorted(top for top, at in rows.items() if len(at) > 1 or top in dotted)
+
+
+def test_each_package_is_at_one_layer():
+    assert split_packages(LAYERS) == [], f"packages split across layers: {split_packages(LAYERS)}"
+    assert len(PACKAGES) == len(LAYERS)
+
+
+@pytest.mark.parametrize("layers", [((2, "starter"), (4, "starter.checks"), (3, "judging")),
+                                    ((2, "starter"), (2, "starter.checks")),
+                                    ((2, "starter"), (3, "starter"))])
+def test_a_split_package_is_seen(layers):
+    assert split_packages(layers) == ["starter"]
 
 
 def package_of(module: str) -> tuple[int, str] | None:
@@ -41,7 +70,7 @@ def package_of(module: str) -> tuple[int, str] | None:
 
 
 def module_name(path: Path) -> str:
-    parts = list(path.relative_to(KIT).with_suffix("").parts)
+    parts = list(path.relative_to(KIT_ROOT).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
     return ".".join(parts)
@@ -71,7 +100,7 @@ def imports_of(path: Path) -> list[tuple[int, str]]:
 
 
 def shipped_files() -> list[Path]:
-    return sorted(p for pkg in PACKAGES if (KIT / pkg).is_dir() for p in (KIT / pkg).rglob("*.py")
+    return sorted(p for pkg in PACKAGES if (KIT_ROOT / pkg).is_dir() for p in (KIT_ROOT / pkg).rglob("*.py")
                   if "__pycache__" not in p.parts)
 
 
@@ -82,18 +111,18 @@ def kit_edges() -> list[tuple[str, int, str, str]]:
         src = module_name(path)
         for line, target in imports_of(path):
             if target.split(".")[0] in PACKAGES:
-                edges.append((str(path.relative_to(KIT)), line, src, target))
+                edges.append((str(path.relative_to(KIT_ROOT)), line, src, target))
     return edges
 
 
 def test_every_shipped_package_has_a_layer():
-    tops = {p.parent.name for p in KIT.glob("*/__init__.py")}
+    tops = {p.parent.name for p in KIT_ROOT.glob("*/__init__.py")}
     assert tops - {"tests", "benchmarks"} <= set(PACKAGES), f"packages without a layer: {tops - set(PACKAGES)}"
 
 
 def test_the_reader_sees_imports_inside_functions(tmp_path, monkeypatch):
     # The checker itself must not miss a hidden import, or the next test proves nothing.
-    probe = KIT / "scenes" / "_layer_probe_tmp.py"
+    probe = KIT_ROOT / "scenes" / "_layer_probe_tmp.py"
     monkeypatch.setattr("tests.test_layers.shipped_files", lambda: [probe])
     probe.write_text("def f():\n    from starter import data\n    return data\n", encoding="utf-8")
     try:
@@ -155,7 +184,26 @@ def test_no_circle_between_modules():
     assert not circles, "import circles:\n" + "\n".join(circles)
 
 
-@pytest.mark.parametrize("module, layer", [("core.geometry", 0), ("starter.checks.fundamental", 4),
-                                           ("starter.epipolar", 2), ("autograder.hidden.x", 7)])
+@pytest.mark.parametrize("module, layer", [("core.geometry", 0), ("core.rotations", 0), ("judging.bundle", 2),
+                                           ("starter.checks.fundamental", 3), ("starter.epipolar", 3),
+                                           ("autograder.hidden.x", 7)])
 def test_package_of(module, layer):
     assert package_of(module)[0] == layer
+
+
+def test_judging_and_core_load_neither_starter_nor_scipy():
+    """Importing every module of core and judging loads no starter (a higher layer) and no scipy.
+
+    core.rotations imports scipy inside its functions only; the judgments run in every hidden
+    test and self-check, and the sandbox's children import core before any student code.
+    """
+    import subprocess
+    import sys
+
+    modules = sorted(module_name(p) for pkg in ("core", "judging") for p in (KIT_ROOT / pkg).rglob("*.py")
+                     if "__pycache__" not in p.parts)
+    code = ("import importlib, sys\n"
+            f"for m in {modules!r}:\n    importlib.import_module(m)\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'starter', 'scipy'}))\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=KIT_ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr

@@ -19,7 +19,7 @@ import pytest
 
 from autograder.sandbox import Sandbox, leftovers
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 
 # A grader: makes one folder of each kind in the root given, says where, and waits to be killed.
 GRADER = textwrap.dedent('''

@@ -16,9 +16,9 @@ from autograder.gradebook import BatchRecord, write_summary
 from autograder.results import QuestionResult, SubmissionResult, TestResult
 from autograder.review.__main__ import main
 from autograder.review.library_calls import find_in_class, find_library_calls
+from core.paths import KIT_ROOT
 
-KIT = Path(__file__).resolve().parents[1]
-KEY = KIT / "notebooks" / "key"
+KEY = KIT_ROOT / "notebooks" / "key"
 
 # cells a student adds to the key's notebooks: OpenCV does the eight-point algorithm and triangulation
 IMPORTS = {"q2_eightpoint": "import cv2 as cv\nfrom cv2 import findFundamentalMat as find_F\n",

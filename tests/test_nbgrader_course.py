@@ -24,8 +24,8 @@ import pytest
 from autograder import nbgrader_course as nc
 from autograder.config import load_config, quick_config
 from core.manifest import NOTEBOOKS, QUESTIONS, question
+from core.paths import KIT_ROOT
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 SOURCE = KIT_ROOT / "notebooks" / "nbgrader" / "source" / "hw4"
 HAS_NBGRADER = importlib.util.find_spec("nbgrader") is not None
 needs_nbgrader = pytest.mark.skipif(not HAS_NBGRADER, reason="nbgrader is not installed (pip install 'nbgrader>=0.9.6,<0.10')")

@@ -21,12 +21,12 @@ import tomllib
 import solutions
 from kit import notebooks as nbk
 from core.manifest import NOTEBOOKS, QUESTION_HEADING, QUESTIONS, functions_of_notebook
+from core.paths import KIT_ROOT
 from core.shipping import NEVER_TO_STUDENTS, STUDENT_PACKAGES
 from kit.release import RELEASE_TOP, leaks, reference_bodies, release_packages, write_release
 from scenes.cameras import project
 from starter.notebook_import import from_notebook, notebook_definitions, try_run
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 ALL_FUNCTIONS = [f for q in QUESTIONS for f in q.functions]
 
 

@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import re
 import subprocess
-from pathlib import Path
 
 import nbformat
 import pytest
 
 from handin import pdf
 from core.manifest import NOTEBOOKS, QUESTIONS
+from core.paths import NOTEBOOKS_DIR
 
 from test_pdf import _browser_or_skip, _mathjax_or_skip, _poppler_or_skip, first_line, pages_of
 
-KEY = Path(__file__).resolve().parents[1] / "notebooks" / "key"
+KEY = NOTEBOOKS_DIR / "key"
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 

@@ -30,7 +30,6 @@ import sys
 import time
 import types
 from dataclasses import dataclass
-from pathlib import Path
 
 import parallel
 import pytest
@@ -52,7 +51,7 @@ CLI_SECRET = SECRETS[0]
 # module), and a per-part zip whose compute3D_pts writes result/ (the sandbox's scratch has it).
 CLI_PROGRAMS = ("y2023_submission_py_util_full", "y2019_submission_py_transposed_helper_refine_loses_Q2",
                 "y2023_per_part_nine_vector_refine_full")
-KIT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 
 
 @dataclass(frozen=True)
@@ -391,7 +390,7 @@ def test_cli_grades_as_in_process(tmp_path):
     env.pop("HW4_GRADER_CONFIG", None)
     started = time.perf_counter()
     run = subprocess.run([sys.executable, "-m", "autograder", "grade", *map(str, built), "--out", str(tmp_path / "out"),
-                          "--jobs", str(parallel.workers()), "--quiet"], cwd=KIT, env=env, capture_output=True,
+                          "--jobs", str(parallel.workers()), "--quiet"], cwd=KIT_ROOT, env=env, capture_output=True,
                          text=True, timeout=1500)
     print(f"\nCLI: {len(built)} programs in {time.perf_counter() - started:.0f} s")
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]

@@ -26,8 +26,8 @@ from corpus import hostile
 
 from autograder.results import autograded_question_ids
 from core.manifest import question
+from core.paths import KIT_ROOT
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 DOCKER_CAPS = ("-all,+chown,+dac_override,+fowner,+fsetid,+kill,+setgid,+setuid,+setpcap,+net_bind_service,"
                "+net_raw,+sys_chroot,+mknod,+audit_write,+setfcap")
 SHARED = ("/tmp", "/var/tmp", "/dev/shm", "/run/lock")

@@ -19,7 +19,7 @@ from autograder.review.similarity import FLAG, MIN_SHARED, compare, groups
 from tests.corpus import variants
 
 CORPUS = Path(__file__).parent / "review_corpus"
-KIT = Path(__file__).resolve().parents[1]
+from core.paths import KIT_ROOT
 
 # (function, a, b): the planted copies, see tests/review_corpus/README.md
 PLANTED = {
@@ -67,7 +67,7 @@ def comparisons(tmp_path_factory):
                 folder = _as_notebook(py, tmp / "zipped")
                 zf.write(folder / "q3_metric_reconstruction.ipynb", f"{py.stem}/q3_metric_reconstruction.ipynb")
         subs.append(read_submission(path))
-    subs.append(read_submission(KIT / "notebooks" / "key", name="key"))
+    subs.append(read_submission(KIT_ROOT / "notebooks" / "key", name="key"))
     for name, src in KIT_STUDENTS.items():
         subs.append(SubmissionCode(name, {f.name: f for f in functions_in_source(src, name)}))
     assert {s.name for s in subs} >= {"alice", "copy_mixed", "eve", "key"}
@@ -126,7 +126,7 @@ def test_identical_one_liners_are_too_short_to_flag():
 
 
 def test_the_untouched_stubs_have_no_code_of_their_own(tmp_path):
-    subs = [read_submission(KIT / "notebooks", name=n) for n in ("stub1", "stub2")]
+    subs = [read_submission(KIT_ROOT / "notebooks", name=n) for n in ("stub1", "stub2")]
     comps = compare(subs)
     for comp in comps.values():
         assert comp.names == [] and comp.skipped == ["stub1", "stub2"]
@@ -134,7 +134,7 @@ def test_the_untouched_stubs_have_no_code_of_their_own(tmp_path):
 
 def test_command_writes_ranked_csv_json_and_an_offline_page(tmp_path):
     out = tmp_path / "out"
-    code = main(["similar", *map(str, sorted(CORPUS.glob("*.py"))), str(KIT / "notebooks" / "key"), "--out", str(out)])
+    code = main(["similar", *map(str, sorted(CORPUS.glob("*.py"))), str(KIT_ROOT / "notebooks" / "key"), "--out", str(out)])
     assert code == 0
     data = json.loads((out / "similarity.json").read_text())
     first = data["functions"]["triangulate"]["pairs"][0]
@@ -163,7 +163,7 @@ def _renamed(source: str) -> str:
 def _key_copy(folder: Path, rename: bool) -> Path:
     """A copy of the answer key's notebooks, its variables renamed when ``rename``."""
     folder.mkdir(parents=True)
-    for nb_path in sorted((KIT / "notebooks" / "key").glob("*.ipynb")):
+    for nb_path in sorted((KIT_ROOT / "notebooks" / "key").glob("*.ipynb")):
         nb = nbformat.read(nb_path, as_version=4)
         for cell in nb.cells:
             if rename and cell.cell_type == "code" and "def " in cell.source:
@@ -197,7 +197,7 @@ def _filled_stubs(folder: Path, answers: Path) -> Path:
     theirs = {f.name: f for f in functions_in_source(answers.read_text(), answers.name)}
     folder.mkdir(parents=True)
     filled = 0
-    for nb_path in sorted((KIT / "notebooks").glob("q*.ipynb")):
+    for nb_path in sorted((KIT_ROOT / "notebooks").glob("q*.ipynb")):
         nb = nbformat.read(nb_path, as_version=4)
         for cell in nb.cells:
             if cell.cell_type != "code":

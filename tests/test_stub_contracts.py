@@ -23,10 +23,10 @@ import nbformat
 import pytest
 
 from core.manifest import QUESTIONS
+from core.paths import KIT_ROOT
 from judging.mistakes import KNOWN_MISTAKES
 from kit import notebooks as nbk
 
-KIT_ROOT = Path(__file__).resolve().parents[1]
 ALL_FUNCTIONS = [f for q in QUESTIONS for f in q.functions]
 
 # The handout's signatures (hw4 handout, "with the signature ..."); functions it names without a

@@ -67,7 +67,7 @@ class TempleCase:
 
     @property
     def M(self) -> float:
-        return float(self.scene.M) if self.scene is not None else self.official.M
+        return self.scene.M if self.scene is not None else self.official.M
 
 
 @dataclass(frozen=True, eq=False)

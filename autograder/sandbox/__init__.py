@@ -67,6 +67,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from core.paths import KIT_ROOT
 from core.shipping import NEVER_TO_STUDENTS, SANDBOX_PACKAGES
 
 from . import leftovers, levels
@@ -126,7 +127,7 @@ class Sandbox:
                  allow_weak: bool = False):
         if isolation not in ("auto",) + LEVELS:
             raise ValueError(f"isolation: expected 'auto' or one of {LEVELS}, got {isolation!r}")
-        self.kit_root = Path(kit_root).resolve() if kit_root else Path(__file__).resolve().parents[2]
+        self.kit_root = Path(kit_root).resolve() if kit_root else KIT_ROOT
         self.limits = limits
         self._uid_fd: int | None = None
         self._base_fd: int | None = None

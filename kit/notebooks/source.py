@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.manifest import QUESTION_HEADING, QUESTIONS, Question
+from core.paths import KIT_ROOT
 
-KIT_ROOT = Path(__file__).resolve().parents[2]
 SRC_DIR = KIT_ROOT / "notebooks" / "src"
 SOLUTIONS_DIR = KIT_ROOT / "solutions"
 

@@ -16,16 +16,16 @@ from functools import lru_cache
 
 import numpy as np
 
-from core.geometry import CameraPair
+from core.geometry import CameraPair, eightpoint_scale
 
 __all__ = [
     "PUBLIC_SEED",
     "NO_DEFAULT_DATA",
     "NoisyPair",
+    "car_data_or_note",
     "car_frame",
-    "default_car",
-    "default_temple",
     "noisy_pair",
+    "temple_data_or_note",
     "temple_scene",
     "triangulation_goal",
     "two_view",
@@ -52,7 +52,7 @@ class NoisyPair:
 
 def noisy_pair(scene) -> NoisyPair:
     """The NoisyPair of a TempleScene (its cameras, true points and stored uint16 matches)."""
-    return NoisyPair(scene.pair, np.asarray(scene.pts1), np.asarray(scene.pts2), float(scene.M))
+    return NoisyPair(scene.pair, np.asarray(scene.pts1), np.asarray(scene.pts2), scene.M)
 
 
 @lru_cache(maxsize=1)
@@ -79,7 +79,7 @@ def two_view() -> NoisyPair:
     def stored(p):
         return np.rint(p + rng.normal(0.0, _NOISE_PX, p.shape)).astype(np.uint16)
 
-    return NoisyPair(pair, stored(pair.pts1), stored(pair.pts2), 640.0)
+    return NoisyPair(pair, stored(pair.pts1), stored(pair.pts2), eightpoint_scale(640, 480))
 
 
 @lru_cache(maxsize=1)
@@ -91,8 +91,11 @@ def car_frame():
     return scene.C[0].copy(), scene.P_true[0].copy()
 
 
-def default_temple(root=None):
-    """(TempleData or None, note): the default temple data, or why there is none."""
+def temple_data_or_note(root=None):
+    """(TempleData or None, note): the temple data ``starter.load_temple(root)`` finds, or why there is none.
+
+    Not the scene behind data/ (that is ``scenes.defaults.default_temple``, with its ground truth).
+    """
     from starter.data import load_temple
 
     try:
@@ -103,8 +106,11 @@ def default_temple(root=None):
         return None, f"the temple data could not be read ({exc}): checked on generated scenes only"
 
 
-def default_car(root=None):
-    """(CarFrame of the first time step or None, note)."""
+def car_data_or_note(root=None):
+    """(CarFrame of the data's first time step or None, note): what ``starter.load_car_frame`` finds.
+
+    Not the scene behind data/q6 (that is ``scenes.defaults.default_car``).
+    """
     from starter.data import car_times, load_car_frame
 
     try:

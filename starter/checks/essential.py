@@ -8,7 +8,7 @@ from core.geometry import fundamental_from_pose
 from judging import essential as je
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
-from ._scenes import NoisyPair, default_temple, two_view
+from ._scenes import NoisyPair, temple_data_or_note, two_view
 from .report import CheckReport, call
 
 __all__ = ["check_essentialMatrix"]
@@ -51,7 +51,7 @@ def check_essentialMatrix(essentialMatrix, *, scene: NoisyPair | None = None, in
         F, K1, K2 = (np.array(a, float) for a in (F, K1, K2))
         _judge(report, call(essentialMatrix, F.copy(), K1.copy(), K2.copy()), F, K1, K2, f"input {k}", False)
 
-    data, note = default_temple(root) if scene is None else (None, "")
+    data, note = temple_data_or_note(root) if scene is None else (None, "")
     if scene is None and data is None:
         report.notes.append(note)
     elif data is not None:

@@ -6,7 +6,7 @@ from judging import fundamental as jf
 from judging.mistakes import mistake
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
-from ._scenes import NoisyPair, default_temple, two_view
+from ._scenes import NoisyPair, temple_data_or_note, two_view
 from .instrument import refineF_switched_off
 from .report import CheckReport, Outcome, call
 
@@ -109,7 +109,7 @@ def check_eightpoint(eightpoint, *, scene: NoisyPair | None = None, root=None, v
                             "minimisation skipped: it returned the closest rank-2 matrix to the F it was given, "
                             "unit norm): refineF can hide a mistake made before it")
 
-    data, note = default_temple(root) if scene is None else (None, "")
+    data, note = temple_data_or_note(root) if scene is None else (None, "")
     if scene is None and data is None:
         report.notes.append(note)
     elif data is not None:

@@ -12,7 +12,7 @@ from judging import multiview as jm
 from judging.verdict import Malformed, read_number
 
 from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
-from ._scenes import PUBLIC_SEED, car_frame, default_car
+from ._scenes import PUBLIC_SEED, car_data_or_note, car_frame
 from .report import CheckReport, call
 
 __all__ = ["DESIGN_CONFIDENCE", "THRES", "check_MultiviewReconstruction"]
@@ -106,7 +106,7 @@ def check_MultiviewReconstruction(MultiviewReconstruction, *, probes=None, seque
             report.notes.append("err over the detections used should be about 0 on the generated frame "
                                 "(every detection used is exact)")
 
-    frame, note = default_car(root) if not explicit else (None, "")
+    frame, note = car_data_or_note(root) if not explicit else (None, "")
     if not explicit and frame is None:
         report.notes.append(note)
     elif frame is not None:

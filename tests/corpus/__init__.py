@@ -20,12 +20,12 @@ from pathlib import Path
 import nbformat
 
 from core.manifest import NOTEBOOKS
+from core.paths import KIT_ROOT
 
 from . import hostile, variants
 
 __all__ = ["CASES", "IN_PROCESS", "KIT_ROOT", "Case", "build", "notebooks", "program_namespace", "trap_path"]
 
-KIT_ROOT = Path(__file__).resolve().parents[2]
 ALL_AUTOGRADED = frozenset({"Q2", "Q3.1", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6"})
 
 Notebooks = dict  # stem -> NotebookNode

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.geometry import project
-from judging.bundle import result, total_error
+from judging.bundle import handout_residuals, result, total_error
 from starter.checks.bundle import BAProblem
 
 from ..scenes import Scenes
@@ -30,7 +30,7 @@ _TRIES = 8
 
 
 def _rotation(axis, degrees) -> np.ndarray:
-    from starter import rodrigues
+    from core.rotations import rodrigues
 
     axis = np.asarray(axis, float)
     return rodrigues(np.radians(degrees) * axis / np.linalg.norm(axis))
@@ -41,7 +41,7 @@ def _gauge_fixed_optimum(K1, K2, p1, p2, M2_init, w_init) -> float:
     # scale cannot collapse; Levenberg-Marquardt from the start converges in a few dozen steps.
     import scipy.optimize
 
-    from starter import invRodrigues, rodrigues
+    from core.rotations import invRodrigues
 
     n = len(p1)
     t0 = M2_init[:, 3]
@@ -50,10 +50,9 @@ def _gauge_fixed_optimum(K1, K2, p1, p2, M2_init, w_init) -> float:
     tangent = np.linalg.svd(direction[None, :])[2][1:].T
 
     def residuals(z):
+        # z = [w, r2, two tangent coordinates of t]: the handout's x with t on its sphere.
         d = direction + tangent @ z[-2:]
-        M2 = np.hstack([rodrigues(z[3 * n:3 * n + 3]), (radius * d / np.linalg.norm(d))[:, None]])
-        w = z[:3 * n].reshape(n, 3)
-        return np.concatenate([(p1 - project(K1 @ M1, w)).ravel(), (p2 - project(K2 @ M2, w)).ravel()])
+        return handout_residuals(K1, M1, p1, K2, p2, np.concatenate([z[:3 * n + 3], radius * d / np.linalg.norm(d)]))
 
     z0 = np.concatenate([w_init.ravel(), invRodrigues(M2_init[:, :3]), np.zeros(2)])
     fit = scipy.optimize.least_squares(residuals, z0, method="lm")
@@ -100,7 +99,7 @@ def _draw_problem(label, scene, count, rng) -> tuple[BAProblem, bool]:
 
 
 def _x_of(problem: BAProblem) -> np.ndarray:
-    from starter import invRodrigues
+    from core.rotations import invRodrigues
 
     return np.concatenate([problem.w_init.ravel(), invRodrigues(problem.M2_init[:, :3]), problem.M2_init[:, 3]])
 
