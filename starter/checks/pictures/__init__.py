@@ -1,0 +1,85 @@
+"""Figures a student can see: each autograded question drawn from the student's own function on the
+public data (never a hidden scene), beside the truth or the reference, so that the catalogue's
+mistakes (judging.mistakes) show.
+
+Two sides, kept apart so that a grader can run the first in its sandbox and the second at home:
+
+- :func:`public_outputs` (question, functions) calls the student's functions on the public default
+  data and returns plain float arrays only (JSON-able through core.wire; never pickle);
+- :func:`draw` (question, outputs) never calls student code: it checks the arrays (names, shapes),
+  computes the truth on the public data itself and draws a :class:`Picture` (PNG, alt text,
+  measures).
+
+``QUESTIONS`` lists the questions; ``FUNCTIONS[q]`` the student functions question q needs.
+:func:`show` (question, functions) does both in a notebook and displays the figure; it never
+raises (a failure prints "figure not drawn: why").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
+
+import numpy as np
+
+from . import q2_eightpoint
+from .arrays import PictureRunError
+from .picture import Picture
+
+__all__ = ["FUNCTIONS", "QUESTIONS", "Picture", "PictureRunError", "draw", "public_outputs", "show"]
+
+_MODULES = {
+    "Q2": q2_eightpoint,
+}
+QUESTIONS: tuple[str, ...] = ("Q2", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6")
+_PLANNED = {"Q3.2": ("triangulate",), "Q3.3": ("findM2",), "Q4.1": ("epipolarCorrespondence",),
+            "Q4.2": ("compute3D_pts",), "Q5": ("bundleAdjustment",), "Q6": ("MultiviewReconstruction",)}
+FUNCTIONS: Mapping[str, tuple[str, ...]] = MappingProxyType(
+    {q: (_MODULES[q].FUNCTIONS if q in _MODULES else _PLANNED[q]) for q in QUESTIONS})
+
+
+def _module(question: str):
+    if question not in QUESTIONS:
+        raise ValueError(f"question: expected one of {QUESTIONS}, got {question!r}")
+    if question not in _MODULES:
+        raise NotImplementedError(f"the figure of {question} is not written yet")
+    return _MODULES[question]
+
+
+def public_outputs(question: str, functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
+    """Call the student's ``functions`` (name -> callable; FUNCTIONS[question] needed) on the public
+    default data (data/, ``root`` or $HW4_DATA); return name -> plain float64 array.
+
+    Raises ValueError when a needed function is missing, PictureRunError when one fails (raises,
+    or returns something that cannot be drawn), saying which and how.
+    """
+    module = _module(question)
+    missing = [f for f in FUNCTIONS[question] if not callable(functions.get(f))]
+    if missing:
+        raise ValueError(f"functions: {question} needs {', '.join(missing)}")
+    out = module.run(functions, root)
+    return {str(k): np.array(v, dtype=np.float64) for k, v in out.items()}
+
+
+def draw(question: str, outputs: Mapping[str, np.ndarray], root=None) -> Picture:
+    """The Picture of ``question`` from ``public_outputs``'s arrays, on the same public data.
+
+    Never calls student code.  ValueError names an array that is missing or of the wrong shape.
+    """
+    return _module(question).draw(outputs, root)
+
+
+def show(question: str, functions: Mapping[str, Callable], root=None) -> Picture | None:
+    """In a notebook: run, draw and display the figure of ``question`` (PNG with its alt text).
+
+    Never raises: when the figure cannot be made it prints "figure not drawn: <why>" and returns None.
+    """
+    from .display import show_picture
+
+    try:
+        picture = draw(question, public_outputs(question, functions, root), root)
+    except Exception as exc:  # noqa: BLE001 - a figure must never break the check it follows
+        print(f"figure not drawn: {type(exc).__name__}: {exc}")
+        return None
+    show_picture(picture)
+    return picture
