@@ -22,18 +22,17 @@ from types import MappingProxyType
 
 import numpy as np
 
-from . import q2_eightpoint
+from . import q2_eightpoint, q3_findM2, q3_triangulate, q4_matches, q4_temple
 from .arrays import PictureRunError
 from .picture import Picture
 
 __all__ = ["FUNCTIONS", "QUESTIONS", "Picture", "PictureRunError", "draw", "public_outputs", "show"]
 
 _MODULES = {
-    "Q2": q2_eightpoint,
+    "Q2": q2_eightpoint, "Q3.2": q3_triangulate, "Q3.3": q3_findM2, "Q4.1": q4_matches, "Q4.2": q4_temple,
 }
 QUESTIONS: tuple[str, ...] = ("Q2", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6")
-_PLANNED = {"Q3.2": ("triangulate",), "Q3.3": ("findM2",), "Q4.1": ("epipolarCorrespondence",),
-            "Q4.2": ("compute3D_pts",), "Q5": ("bundleAdjustment",), "Q6": ("MultiviewReconstruction",)}
+_PLANNED = {"Q5": ("bundleAdjustment", "rodriguesResidual"), "Q6": ("MultiviewReconstruction",)}
 FUNCTIONS: Mapping[str, tuple[str, ...]] = MappingProxyType(
     {q: (_MODULES[q].FUNCTIONS if q in _MODULES else _PLANNED[q]) for q in QUESTIONS})
 

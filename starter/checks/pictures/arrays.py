@@ -10,7 +10,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["PictureRunError", "float_array", "maybe", "need"]
+__all__ = ["PictureRunError", "call", "float_array", "maybe", "need", "number", "read"]
 
 
 class PictureRunError(RuntimeError):
@@ -50,3 +50,30 @@ def need(outputs: Mapping, name: str, shape: tuple) -> np.ndarray:
 def maybe(outputs: Mapping, name: str, shape: tuple) -> np.ndarray | None:
     """Like :func:`need`, None when ``name`` is absent (a run that was not made)."""
     return need(outputs, name, shape) if name in outputs else None
+
+
+def call(fn, name: str, *args):
+    """``fn(*args)``, the student's exception turned into a PictureRunError naming ``name`` (type and first line)."""
+    try:
+        return fn(*args)
+    except Exception as exc:  # noqa: BLE001 - any exception of student code is reported, never raised as is
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        raise PictureRunError(f"{name} raised {type(exc).__name__} on the public data: {first}") from None
+
+
+def read(reader, value, *args, name: str):
+    """``reader(value, *args)`` (a judging reader), its Malformed turned into a PictureRunError naming ``name``."""
+    from judging.verdict import Malformed
+
+    try:
+        return reader(value, *args)
+    except Malformed as exc:
+        raise PictureRunError(f"{name} returned something that cannot be drawn: {exc}") from None
+
+
+def number(value, name: str) -> np.ndarray:
+    """A returned scalar (err, o1...) as a (1,) float array; NaN when it is not one number."""
+    try:
+        return np.array([float(np.asarray(value, dtype=float).reshape(()))])
+    except (TypeError, ValueError):
+        return np.array([np.nan])

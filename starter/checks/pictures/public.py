@@ -15,7 +15,7 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["NO_TRUTH", "CarPublic", "TemplePublic", "car", "temple"]
+__all__ = ["NO_TRUTH", "CarPublic", "TemplePublic", "car", "need_truth", "temple"]
 
 NO_TRUTH = "no ground truth for this data (not the kit's default data)"
 
@@ -87,3 +87,12 @@ def car(root=None, *, truth: bool = True) -> CarPublic:
         if all(_same(frame.pts[i], scene.pts[0][i]) for i in range(3)):
             P_true = np.array(scene.P_true[0], float)
     return CarPublic(frame, P_true)
+
+
+def need_truth(pub, question: str):
+    """``pub``'s truth (scene or P_true), or ValueError saying that ``question``'s figure needs the default data."""
+    truth = pub.scene if isinstance(pub, TemplePublic) else pub.P_true
+    if truth is None:
+        raise ValueError(f"{question}'s figure needs the true cameras of the kit's default data; {NO_TRUTH} "
+                         "(restore data/ with `python -m kit data` to see it)")
+    return truth
