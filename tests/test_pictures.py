@@ -240,3 +240,142 @@ def test_q42_right_temple_lies_on_the_true_one(source):
     p = picture("Q4.2", source)
     assert p.measures["share_near"] > 0.8 and p.measures["median_error"] < 0.05 * p.measures["temple_size"]
     assert f"{p.measures['share_near']:.0%}" in p.alt
+
+
+# ----------------------------------------------------------------------------- Q5
+
+@slow
+def test_q5_right_bundle_adjustment_goes_down_and_is_recorded():
+    p = picture("Q5")
+    m = p.measures
+    assert m["end_error"] < 0.01 * m["start_error"]
+    assert m["n_calls"] >= 2 and np.isclose(m["history_first"], m["start_error"], rtol=1e-6)
+    assert m["history_min"] <= m["end_error"] * (1 + 1e-6)
+    assert m["residual_layout_gap"] < 1e-9
+    assert states(p.alt, m["start_error"]) and states(p.alt, m["end_error"])
+
+
+@slow
+def test_q5_returning_the_start_shows_the_drop_not_kept():
+    p = picture("Q5", V.BA_RETURNS_START)
+    m = p.measures
+    assert m["end_error"] == pytest.approx(m["start_error"], rel=1e-9)
+    assert m["history_min"] < 0.01 * m["start_error"]       # the optimiser got there; the result did not
+    assert "not lower" in p.alt
+
+
+@slow
+def test_q5_interleaved_residuals_leave_the_handout_layout():
+    p = picture("Q5", V.WRAP_RESIDUAL_INTERLEAVED)
+    assert p.measures["residual_layout_gap"] > 0.5
+    assert states(p.alt, p.measures["residual_layout_gap"])
+
+
+@slow
+@pytest.mark.parametrize("source", [V.BA_MINIMIZE, V.BA_LEAST_SQUARES])
+def test_q5_other_optimisers_are_recorded(source):
+    import scipy.optimize as so
+
+    ns = program(source)
+    m = pictures.draw("Q5", pictures.public_outputs("Q5", ns)).measures
+    assert m["n_calls"] > 10 and m["end_error"] < 0.01 * m["start_error"]
+    # everything the recording replaced is back
+    assert so.least_squares.__name__ == "least_squares" and so.minimize.__name__ == "minimize"
+    assert not hasattr(ns["rodriguesResidual"], "__wrapped__")
+
+
+# ----------------------------------------------------------------------------- Q6
+
+WRAP_THRESHOLD_IGNORED = '''\
+_key_MultiviewReconstruction = MultiviewReconstruction
+
+
+def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
+    """Every detection used, whatever its confidence."""
+    return _key_MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, -1.0)
+'''
+WRAP_THRESHOLD_TOO_STRICT = WRAP_THRESHOLD_IGNORED.replace("-1.0", "Thres + 150").replace(
+    "Every detection used, whatever its confidence", "Detections just above Thres left out")
+
+
+@slow
+def test_q6_right_keypoints_follow_the_handouts_rule():
+    p = picture("Q6")
+    m = p.measures
+    assert m["nearest_rule"] == 0 and m["detections_at_thres"] >= 1
+    assert m["mean_reprojection_px"] < 5 and m["mean_error_3d"] < 0.05
+    assert "confidence > Thres" in p.alt and states(p.alt, m["mean_reprojection_px"])
+
+
+@slow
+@pytest.mark.parametrize("source, rule", [(V.WRAP_THRESHOLD_INCLUSIVE, 1), (WRAP_THRESHOLD_IGNORED, 2)])
+def test_q6_threshold_mistakes_follow_another_rule(source, rule):
+    from starter.checks.pictures.q6_multiview import RULES
+
+    p = picture("Q6", source)
+    assert p.measures["nearest_rule"] == rule
+    assert RULES[rule] in p.alt
+
+
+@slow
+def test_q6_too_strict_leaves_keypoints_out():
+    right, strict = picture("Q6").measures, picture("Q6", WRAP_THRESHOLD_TOO_STRICT).measures
+    assert strict["n_reconstructed"] < right["n_reconstructed"]
+    assert strict["gap_0"] > 1.0 > right["gap_0"]
+
+
+@slow
+def test_q6_mean_error_is_stated_as_returned():
+    right, mean = picture("Q6").measures, picture("Q6", V.WRAP_MULTIVIEW_MEAN_ERR).measures
+    assert mean["err_reported"] < 0.2 * right["err_reported"]
+    assert mean["mean_reprojection_px"] == pytest.approx(right["mean_reprojection_px"])
+
+
+# ----------------------------------------------------------------------------- in a notebook
+
+@slow
+def test_a_check_shows_its_figure_in_a_notebook(monkeypatch, capsys):
+    """In a notebook (IPython faked here) a check displays the PNG with its alt text; a figure that
+    cannot be drawn says why and the check's report is still returned."""
+    import IPython.display
+
+    from starter.checks import check_triangulate
+    from starter.checks.pictures import display
+
+    shown = []
+    monkeypatch.setattr(display, "in_notebook", lambda: True)
+    monkeypatch.setattr(IPython.display, "display", lambda bundle, raw=False: shown.append(bundle))
+    report = check_triangulate(program()["triangulate"])
+    assert report.passed and len(shown) == 1
+    assert shown[0]["image/png"].startswith(b"\x89PNG") and "alt='" in shown[0]["text/html"]
+
+    def triangulate(C1, pts1, C2, pts2):
+        raise RuntimeError("no")
+
+    report = check_triangulate(triangulate)
+    assert not report.passed and len(shown) == 1
+    assert "figure not drawn: PictureRunError: triangulate raised RuntimeError" in capsys.readouterr().out
+
+
+@slow
+def test_default_data_only_where_truth_is_needed(tmp_path):
+    """Data that is not the default (an instructor's official data) draws Q2 against its own matches
+    and says Q3.2 needs the default data's cameras."""
+    import shutil
+
+    from starter.checks.pictures.public import NO_TRUTH, temple
+
+    root = tmp_path / "data"
+    shutil.copytree(temple(truth=False).data.folder, root / "temple")
+    z = dict(np.load(root / "temple" / "some_corresp.npz"))
+    z["pts1"] = z["pts1"].copy()
+    z["pts1"][0, 0] += 1
+    np.savez(root / "temple" / "some_corresp.npz", **z)
+
+    def eightpoint(pts1, pts2, M):
+        return np.eye(3)
+
+    p = pictures.draw("Q2", {"F": np.eye(3)}, root=root)
+    assert NO_TRUTH in p.alt and "true_F_mean_distance_px" not in p.measures
+    with pytest.raises(ValueError, match="Q3.2's figure needs the true cameras"):
+        pictures.public_outputs("Q3.2", {"triangulate": eightpoint}, root=root)

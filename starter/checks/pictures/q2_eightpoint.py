@@ -178,7 +178,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
             measures["max_distance_px"] = float(np.max(dist)) if np.all(np.isfinite(dist)) else float("inf")
         if key == "F_uint16":
             measures["uint16_F_change"] = _change(F, Fs["F"])
-            note += f"; differs from the F of float points by {measures['uint16_F_change']:.2g}"
+            note += f"; differs from the F of float points by {measures['uint16_F_change']:.3g}"
         big.set_xlabel(note, fontsize=8)
         parts.append(f"{_RUNS[key]}: {fmt(mean, 'px')}")
     if "F_uint16" in Fs and "F_uint16" not in drawn:
@@ -193,8 +193,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            + f" through {dots} (red dots), and a zoom of {ZOOM_PX} px around each dot. "
            + "Mean distance of the dots to your lines: " + "; ".join(parts)
            + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}" if truth_F is not None else "")
-           + (f". The F of uint16 points differs from the F of float points by {measures['uint16_F_change']:.2g} "
+           + (f". The F of uint16 points differs from the F of float points by {measures['uint16_F_change']:.3g} "
               "(0: the same up to scale)" if "uint16_F_change" in measures else "")
-           + f". Your F (as returned) is {rank} (s3/s2 = {measures['s3_over_s2']:.2g})."
+           + f". Your F (as returned) is {rank} (s3/s2 = {measures['s3_over_s2']:.3g})."
            + ("" if s is not None else f" {NO_TRUTH}."))
     return to_picture("Q2", "eightpoint: your epipolar lines in image 2", fig, alt, measures)
