@@ -379,3 +379,65 @@ def test_default_data_only_where_truth_is_needed(tmp_path):
     assert NO_TRUTH in p.alt and "true_F_mean_distance_px" not in p.measures
     with pytest.raises(ValueError, match="Q3.2's figure needs the true cameras"):
         pictures.public_outputs("Q3.2", {"triangulate": eightpoint}, root=root)
+
+
+# ----------------------------------------------------------------------------- mistakes without a corpus program
+
+_SWAP = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+@slow
+@pytest.mark.parametrize("mistake", ["xy_swapped", "f_unscaled_wrong_way"])
+def test_q2_other_catalogue_mistakes_miss_the_matches(mistake):
+    """The catalogue's repairs (judging.mistakes._f_repairs) undone: the F each mistake makes."""
+    key = program()["eightpoint"]
+    M = 640.0
+    T = np.diag([1 / M, 1 / M, 1.0])
+    spoil = {"xy_swapped": lambda F: _SWAP @ F @ _SWAP,
+             "f_unscaled_wrong_way": lambda F: np.linalg.inv(T) @ np.linalg.inv(T) @ F @ np.linalg.inv(T) @ np.linalg.inv(T)}
+
+    def eightpoint(pts1, pts2, M):
+        return spoil[mistake](key(pts1, pts2, M))
+
+    p = pictures.draw("Q2", pictures.public_outputs("Q2", {"eightpoint": eightpoint}))
+    assert p.measures["mean_distance_px"] > 10
+
+
+@slow
+def test_q2_not_unscaled_draws_no_line_in_the_image():
+    p = picture("Q2", V.EIGHTPOINT_NOT_UNSCALED)
+    assert p.measures["lines_in_image"] < p.measures["n_lines"]
+    assert f"{int(p.measures['lines_in_image'])} of your 8 lines cross image 2" in p.alt
+
+
+@slow
+def test_q5_scale_collapse_is_measured():
+    """A bundle adjustment whose points and t shrink together (the catalogue's BA scale collapse)."""
+    key = program()["bundleAdjustment"]
+
+    def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
+        M2, w, o1, o2 = key(K1, M1, p1, K2, M2_init, p2, w_init)
+        M2 = np.hstack([M2[:, :3], 1e-3 * M2[:, 3:]])
+        return M2, 1e-3 * w, o1, o2
+
+    m = pictures.draw("Q5", pictures.public_outputs("Q5", {"bundleAdjustment": bundleAdjustment})).measures
+    assert m["t_ratio"] < 0.01 and m["end_error"] < 0.01 * m["start_error"]
+    assert "residual_layout_gap" not in m     # no rodriguesResidual given: no panel, no measure
+
+
+@slow
+def test_q5_x_packing_shows_in_the_residuals():
+    """rodriguesResidual reading each point of x as (z, y, x): its residuals leave the handout's layout."""
+    ns = program()
+    key = ns["rodriguesResidual"]
+    out = pictures.public_outputs("Q5", {"bundleAdjustment": ns["bundleAdjustment"], "rodriguesResidual": key})
+    assert pictures.draw("Q5", out).measures["residual_layout_gap"] < 1e-9
+
+    def packed_wrong(K1, M1, p1, K2, p2, x):
+        n = len(p1)
+        x = np.asarray(x, float)
+        w = x[:3 * n].reshape(n, 3)[:, ::-1].ravel()            # each point read as (z, y, x)
+        return key(K1, M1, p1, K2, p2, np.concatenate([w, x[3 * n:]]))
+
+    out = pictures.public_outputs("Q5", {"bundleAdjustment": ns["bundleAdjustment"], "rodriguesResidual": packed_wrong})
+    assert pictures.draw("Q5", out).measures["residual_layout_gap"] > 0.1

@@ -145,7 +145,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     returned), refineF_off_mean_distance_px, uint16_mean_distance_px (when those runs exist),
     uint16_F_change (0 when the uint16 points give the same F as the float ones, up to scale; about
     1 when unrelated), true_F_mean_distance_px (default data only), s3_over_s2 (of the F as
-    returned, on points / M: about 0 when rank 2), n_lines.
+    returned, on points / M: about 0 when rank 2), n_lines, lines_in_image (of the F as returned: an
+    F that was not unscaled draws its lines outside image 2).
     """
     Fs = {"F": need(outputs, "F", (3, 3))}
     for key in ("F_refineF_off", "F_uint16"):
@@ -176,6 +177,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         measures[f"{_KEYS[key]}mean_distance_px"] = mean
         if key == "F":
             measures["max_distance_px"] = float(np.max(dist)) if np.all(np.isfinite(dist)) else float("inf")
+            h, w = d.im2.shape[:2]
+            measures["lines_in_image"] = float(sum(clip_line(ln, w, h) is not None for ln in h1 @ F.T))
         if key == "F_uint16":
             measures["uint16_F_change"] = _change(F, Fs["F"])
             note += f"; differs from the F of float points by {measures['uint16_F_change']:.3g}"
@@ -195,6 +198,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}" if truth_F is not None else "")
            + (f". The F of uint16 points differs from the F of float points by {measures['uint16_F_change']:.3g} "
               "(0: the same up to scale)" if "uint16_F_change" in measures else "")
+           + f". {int(measures['lines_in_image'])} of your {len(rows)} lines cross image 2"
            + f". Your F (as returned) is {rank} (s3/s2 = {measures['s3_over_s2']:.3g})."
            + ("" if s is not None else f" {NO_TRUTH}."))
     return to_picture("Q2", "eightpoint: your epipolar lines in image 2", fig, alt, measures)

@@ -83,7 +83,7 @@ def _panel(ax, k, M2c, X, front, chosen: bool, right: bool) -> None:
     pad = 0.15 * max(np.ptp(xs), np.ptp(zs))
     ax.set_xlim(xs.min() - pad, xs.max() + pad)
     ax.set_ylim(zs.min() - pad, zs.max() + pad)
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     tags = ", ".join(t for t, on in (("yours", chosen), ("right", right)) if on)
     ax.set_title(f"candidate {k + 1}: {int(front.sum())} of {len(front)} in front of both"
                  + (f" ({tags})" if tags else ""), fontsize=8)
