@@ -207,7 +207,7 @@ def test_q33_wrong_camera_is_framed_with_its_points_behind(source):
     m = p.measures
     assert m["chosen"] >= 0 and m["chosen"] != m["right"]
     assert m["chosen_share_in_front"] == 0.0 and m["right_share_in_front"] == 1.0
-    assert f"Yours is candidate {int(m['chosen']) + 1}" in p.alt
+    assert f"yours is candidate {int(m['chosen']) + 1} (framed)" in p.alt
 
 
 @slow
@@ -441,3 +441,86 @@ def test_q5_x_packing_shows_in_the_residuals():
 
     out = pictures.public_outputs("Q5", {"bundleAdjustment": ns["bundleAdjustment"], "rodriguesResidual": packed_wrong})
     assert pictures.draw("Q5", out).measures["residual_layout_gap"] > 0.1
+
+
+@slow
+def test_q33_depth_in_camera_1_only_picks_the_twisted_pair():
+    """The catalogue's "depth tested in one camera only": on the default data it picks the right camera
+    (by chance, as the README says); on the twisted-pair row its choice has every point in front of
+    camera 1 and behind camera 2."""
+    ns = program()
+    essentialMatrix, triangulate = ns["essentialMatrix"], ns["triangulate"]
+    from starter import camera2
+
+    def findM2(F, pts1, pts2, K1, K2):
+        cands = camera2(essentialMatrix(F, K1, K2))
+        best = None
+        for i in range(4):
+            w, err = triangulate(K1 @ np.eye(3, 4), pts1, K2 @ cands[:, :, i], pts2)
+            if np.all(w[:, 2] > 0) and (best is None or err < best[0]):
+                best = (err, cands[:, :, i], K2 @ cands[:, :, i], w)
+        return best[1:]
+
+    p = pictures.draw("Q3.3", pictures.public_outputs("Q3.3", {"findM2": findM2}))
+    m = p.measures
+    assert m["chosen"] == m["right"]
+    assert m["twisted_chosen"] >= 0 and m["twisted_chosen"] != m["twisted_right"]
+    assert m["twisted_chosen_share_front_1_only"] == 1.0 and m["twisted_right_share_in_front"] == 1.0
+    assert "twisted-pair case" in p.alt
+    right = picture("Q3.3").measures
+    assert right["twisted_chosen"] == right["twisted_right"]
+
+
+# ----------------------------------------------------------------------------- what is drawn, read back
+
+def _captured(monkeypatch, module):
+    """The matplotlib figure ``module.draw`` renders, kept for reading its artists."""
+    figures = []
+    original = module.to_picture
+
+    def keep(question, title, fig, alt, measures):
+        figures.append(fig)
+        return original(question, title, fig, alt, measures)
+
+    monkeypatch.setattr(module, "to_picture", keep)
+    return figures
+
+
+def _dots_to_drawn_lines(fig) -> np.ndarray:
+    """Per drawn match of the first (large) panel, the distance in pixels to the line drawn for it."""
+    ax = fig.axes[0]
+    lines = [a for a in ax.lines if a.get_gid() == "student_line"]
+    (dots,) = [a for a in ax.lines if a.get_gid() == "match"]
+    xy = np.column_stack([dots.get_xdata(), dots.get_ydata()])
+    out = []
+    for (x, y), ln in zip(xy, lines):
+        (x0, x1), (y0, y1) = ln.get_xdata(), ln.get_ydata()
+        out.append(abs((x1 - x0) * (y0 - y) - (x0 - x) * (y1 - y0)) / np.hypot(x1 - x0, y1 - y0))
+    return np.array(out)
+
+
+@slow
+def test_q2_the_drawn_lines_pass_through_the_drawn_dots(monkeypatch):
+    from starter.checks.pictures import q2_eightpoint
+
+    figures = _captured(monkeypatch, q2_eightpoint)
+    right = picture("Q2")
+    d = _dots_to_drawn_lines(figures[-1])
+    assert len(d) == 8 and d.max() < 1.0
+    assert np.mean(d) == pytest.approx(right.measures["mean_distance_px"], rel=1e-6)
+    wrong = picture("Q2", V.EIGHTPOINT_TRANSPOSED)
+    d = _dots_to_drawn_lines(figures[-1])
+    assert d.max() > 5 and np.mean(d) > 2
+    assert np.mean(d) == pytest.approx(wrong.measures["mean_distance_px"], rel=1e-6)
+
+
+@slow
+def test_q41_the_drawn_crosses_are_the_matches(monkeypatch):
+    from starter.checks.pictures import q4_matches
+
+    figures = _captured(monkeypatch, q4_matches)
+    p = picture("Q4.1", V.WRAP_XY_SWAPPED)
+    ax = figures[-1].axes[1]
+    right = [a for a in ax.lines if a.get_gid() == "yours_right"][0]
+    wrong = [a for a in ax.lines if a.get_gid() == "yours_wrong"][0]
+    assert len(right.get_xdata()) == 0 and len(wrong.get_xdata()) == p.measures["n_points"]
