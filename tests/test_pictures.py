@@ -394,7 +394,8 @@ def test_q2_other_catalogue_mistakes_miss_the_matches(mistake):
     M = 640.0
     T = np.diag([1 / M, 1 / M, 1.0])
     spoil = {"xy_swapped": lambda F: _SWAP @ F @ _SWAP,
-             "f_unscaled_wrong_way": lambda F: np.linalg.inv(T) @ np.linalg.inv(T) @ F @ np.linalg.inv(T) @ np.linalg.inv(T)}
+             "f_unscaled_wrong_way": lambda F: np.linalg.matrix_power(np.linalg.inv(T), 2) @ F
+             @ np.linalg.matrix_power(np.linalg.inv(T), 2)}
 
     def eightpoint(pts1, pts2, M):
         return spoil[mistake](key(pts1, pts2, M))

@@ -195,7 +195,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            + (" and of the true F (dashed, blue)" if truth_F is not None else "")
            + f" through {dots} (red dots), and a zoom of {ZOOM_PX} px around each dot. "
            + "Mean distance of the dots to your lines: " + "; ".join(parts)
-           + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}" if truth_F is not None else "")
+           + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}"
+              if truth_F is not None else "")
            + (f". The F of uint16 points differs from the F of float points by {measures['uint16_F_change']:.3g} "
               "(0: the same up to scale)" if "uint16_F_change" in measures else "")
            + f". {int(measures['lines_in_image'])} of your {len(rows)} lines cross image 2"
