@@ -173,7 +173,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     for row, (key, F) in enumerate(drawn.items()):
         big, dist = _panel_row(fig, grid, row, d, _RUNS[key], F, truth_F, h1, p2[rows], ZOOM_PX)
         mean = float(np.mean(dist)) if np.all(np.isfinite(dist)) else float("inf")
-        note = f"mean distance of the dots to the lines {fmt(mean, 'px')}"
+        note = f"{_RUNS[key]}: dots {fmt(mean, 'px')} from the lines on average"
         measures[f"{_KEYS[key]}mean_distance_px"] = mean
         if key == "F":
             measures["max_distance_px"] = float(np.max(dist)) if np.all(np.isfinite(dist)) else float("inf")
@@ -182,7 +182,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         if key == "F_uint16":
             measures["uint16_F_change"] = _change(F, Fs["F"])
             note += f"; differs from the F of float points by {measures['uint16_F_change']:.3g}"
-        big.set_xlabel(note, fontsize=8)
+        big.set_title(note, fontsize=9)
         parts.append(f"{_RUNS[key]}: {fmt(mean, 'px')}")
     if "F_uint16" in Fs and "F_uint16" not in drawn:
         measures["uint16_F_change"] = _change(Fs["F_uint16"], Fs["F"])
@@ -201,5 +201,5 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
               "(0: the same up to scale)" if "uint16_F_change" in measures else "")
            + f". {int(measures['lines_in_image'])} of your {len(rows)} lines cross image 2"
            + f". Your F (as returned) is {rank} (s3/s2 = {measures['s3_over_s2']:.3g})."
-           + ("" if s is not None else f" {NO_TRUTH}."))
+           + ("" if s is not None else f" There is {NO_TRUTH[3:]}: the dots are the given matches."))
     return to_picture("Q2", "eightpoint: your epipolar lines in image 2", fig, alt, measures)
