@@ -510,20 +510,32 @@ def test_from_notebook_errors_say_what_to_do(tmp_path):
         from_notebook("x.ipynb", "g", folder=tmp_path)
 
 
-def test_try_run_reports_stubs_and_passes_real_errors(capsys):
+def test_try_run_reports_stubs_and_contains_real_errors(capsys):
     def stub(x):
         raise NotImplementedError()
 
     def check(fn):
         return fn(1)
 
+    def inner(x):
+        return [][x]
+
+    def outer():
+        return inner(3)
+
     assert try_run(stub, 1) is None
     assert try_run(check, stub) is None
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("stub: not implemented yet") and "(check skipped)" in out[1]
     assert try_run(lambda a, b=0: a + b, 1, b=2) == 3
-    with pytest.raises(ZeroDivisionError):
-        try_run(lambda: 1 / 0)
+    # A real error is one short line naming the function called and where it was raised; the
+    # caller gets None, so the cells after it still run.
+    assert try_run(outer) is None
+    (line,) = capsys.readouterr().out.splitlines()
+    assert line.startswith("outer failed: IndexError: list index out of range (raised in inner, line ")
+    assert "call it directly to see the traceback" in line
+    with pytest.raises(KeyboardInterrupt):
+        try_run(lambda: (_ for _ in ()).throw(KeyboardInterrupt))
 
 
 # ------------------------------------------------------------------------------- the release
