@@ -6,8 +6,12 @@ and the preprocessors that make every output printable.
   interactive output with no static image becomes a short note instead of raw text;
 - long text outputs keep their first and last lines; very wide images are scaled down; images a
   markdown cell links from its folder are inlined;
-- every question heading and every notebook starts a new page, after the cover;
-- the setup cell (the kit's own code, the same in every notebook) prints as one line.
+- every question heading and every notebook starts a new page, after the cover, and so does a
+  cell the notebook builder tagged ``PAGE_START_TAG`` (a question's output printed after the next
+  question's, such as Q3.2's errors);
+- the kit's plumbing is not the student's work: the setup cell (and any code cell tagged
+  ``PLUMBING_TAG``) prints as one line, the "Open in Colab" note (tagged, or recognised by its
+  words in notebooks built before the tag) is left out.
 """
 
 from __future__ import annotations
@@ -30,8 +34,8 @@ from .cover import NO_NAME, TITLE, cover_html, heading_id, question_status
 from .mathjax import ensure_mathjax
 
 __all__ = ["StaticOutputsPreprocessor", "TruncateOutputsPreprocessor", "ScaleImagesPreprocessor",
-           "LocalImagesPreprocessor", "SetupCellPreprocessor", "PREPROCESSORS", "SETUP_FIRST_LINE",
-           "notebooks_to_html"]
+           "LocalImagesPreprocessor", "SetupCellPreprocessor", "PlumbingNotesPreprocessor", "PREPROCESSORS",
+           "SETUP_FIRST_LINE", "PAGE_START_TAG", "PLUMBING_TAG", "notebooks_to_html"]
 
 ASSETS = Path(__file__).resolve().with_name("pdf_assets")
 IMAGE_TYPES = ("image/png", "image/svg+xml", "image/jpeg")
@@ -193,26 +197,58 @@ class LocalImagesPreprocessor(Preprocessor):
 # The first line of the homework notebooks' setup cell (kit.notebooks writes it; handin may not
 # import kit): a code cell that starts with it is the kit's own code, not the student's work.
 SETUP_FIRST_LINE = "# Setup: run this cell first."
+# Cell tags the notebook builder (kit.notebooks, which imports them from here) writes: a cell that
+# begins a printed page, and a cell of the kit's plumbing (the setup cell, the Colab note).
+PAGE_START_TAG = "hw4-page-start"
+PLUMBING_TAG = "hw4-kit-plumbing"
+# How the Colab note of notebooks built before PLUMBING_TAG begins (kit.notebooks.setup writes it).
+_COLAB_NOTE_STARTS = ("[Open this notebook in Colab](", "*Colab: this kit comes from ")
+
+
+def _tags(cell) -> list:
+    return list(cell.get("metadata", {}).get("tags", []))
 
 
 class SetupCellPreprocessor(Preprocessor):
-    """Print the setup cell as one line: its code is the kit's, the same in every notebook.
+    """Print the setup cell (and any code cell tagged ``PLUMBING_TAG``) as one line: its code is
+    the kit's, the same in every notebook.
 
     Its outputs (where the kit was found) are kept; a student who wrote in the cell (their name,
     say) loses nothing from the PDF that matters, as the cover shows the name.
     """
 
     def preprocess_cell(self, cell, resources, index):
-        if cell.cell_type == "code" and cell.source.lstrip().startswith(SETUP_FIRST_LINE):
+        if cell.cell_type == "code" and (cell.source.lstrip().startswith(SETUP_FIRST_LINE)
+                                         or PLUMBING_TAG in _tags(cell)):
             lines = len(cell.source.splitlines())
             cell.source = f"# Setup cell of the homework kit ({lines} lines, not printed)"
         return cell, resources
 
 
+class PlumbingNotesPreprocessor(Preprocessor):
+    """Leave out the markdown cells of the kit's plumbing: the "Open in Colab" note and its
+    how-to (tagged ``PLUMBING_TAG``, or recognised by how it begins).  A page break the cell
+    carried moves to the next cell."""
+
+    def preprocess(self, nb, resources):
+        kept, carry = [], False
+        for cell in nb.cells:
+            if cell.cell_type == "markdown" and (PLUMBING_TAG in _tags(cell)
+                                                 or cell.source.lstrip().startswith(_COLAB_NOTE_STARTS)):
+                carry = carry or PAGE_START_TAG in _tags(cell)
+                continue
+            if carry and PAGE_START_TAG not in _tags(cell):
+                cell.metadata["tags"] = _tags(cell) + [PAGE_START_TAG]
+            carry = False
+            kept.append(cell)
+        nb.cells = kept
+        return nb, resources
+
+
 # Order matters: streams are merged before they are cut; a representation is chosen before
 # images are scaled (so only the kept image is decoded); links are fixed before rendering.
 PREPROCESSORS = (CoalesceStreamsPreprocessor, StaticOutputsPreprocessor, TruncateOutputsPreprocessor,
-                 ScaleImagesPreprocessor, LocalImagesPreprocessor, SetupCellPreprocessor)
+                 ScaleImagesPreprocessor, LocalImagesPreprocessor, SetupCellPreprocessor, PlumbingNotesPreprocessor)
 
 
 # ----------------------------------------------------------------------------- questions, cover
@@ -230,8 +266,8 @@ def _combined(infos: list[NotebookInfo]) -> nbformat.NotebookNode:
             cell.metadata["hw4_dir"] = str(info.path.parent.resolve())
             qid = heading_id(cell)
             # A repeated heading ("Q5 (continued)") stays on its page: one start per question.
-            if j == 0 or (qid and qid not in seen):
-                cell.metadata["tags"] = list(cell.metadata.get("tags", [])) + ["hw4-page-start"]
+            if (j == 0 or (qid and qid not in seen)) and PAGE_START_TAG not in _tags(cell):
+                cell.metadata["tags"] = _tags(cell) + [PAGE_START_TAG]
             if qid:
                 seen.add(qid)
             nb.cells.append(cell)

@@ -81,7 +81,8 @@ def html_to_pdf(html_path, out, *, browser: str | None = None, timeout: float = 
 
 
 def build_pdf(notebooks, out, *, name: str | None = None, browser: str | None = None,
-              timeout: float = 180.0, engine: str = "cli", keep_html: bool = False) -> Path:
+              timeout: float = 180.0, engine: str = "cli", keep_html: bool = False,
+              already_reported=()) -> Path:
     """Export the student's notebooks to one Gradescope-ready PDF.
 
     Parameters
@@ -102,11 +103,14 @@ def build_pdf(notebooks, out, *, name: str | None = None, browser: str | None = 
         How the browser is driven, see :func:`html_to_pdf`.
     keep_html : bool
         Also keep the printed HTML beside the PDF (``out`` with suffix ``.html``), for debugging.
+    already_reported : iterable of str
+        Warnings the caller has already shown (the code zip's report lists the same files left
+        out): these are not printed again.
 
     Returns
     -------
     Path
-        The PDF written. Files left out are reported on stderr.
+        The PDF written. Files left out are reported on stderr, each once.
 
     Raises
     ------
@@ -120,8 +124,10 @@ def build_pdf(notebooks, out, *, name: str | None = None, browser: str | None = 
         raise ValueError(f"out: expected a path ending in .pdf, got {str(out)!r}")
     browser = find_browser(browser) if browser else ensure_browser()  # fail before the slower HTML step
     page, warnings = notebooks_to_html(notebooks, name=name)
-    for w in warnings:
-        print(f"warning: {w}", file=sys.stderr)
+    said = set(already_reported)
+    for w in dict.fromkeys(warnings):
+        if w not in said:
+            print(f"warning: {w}", file=sys.stderr)
     with tempfile.TemporaryDirectory(prefix="hw4-pdf-") as tmp:
         html_path = Path(tmp) / "hw4.html"
         html_path.write_text(page, encoding="utf-8")
@@ -160,11 +166,13 @@ def main(args: argparse.Namespace) -> int:
     if isinstance(source, list) and len(source) == 1:
         source = source[0]
     try:
+        said = []
         if args.code_zip:
             report = build_code_zip(source, args.code_zip, max_mb=args.max_mb)
             print(report)
+            said = report.warnings  # the PDF leaves out the same files: one warning each is enough
         pdf = build_pdf(source, args.out, name=args.name, browser=args.browser, timeout=args.timeout,
-                        engine=args.engine, keep_html=args.keep_html)
+                        engine=args.engine, keep_html=args.keep_html, already_reported=said)
     except (ValueError, BrowserNotFoundError, MathJaxNotFoundError, PdfExportError,
             subprocess.CalledProcessError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -609,7 +609,7 @@ def _run(session: EpipolarSession, points, interactive: bool | None) -> Epipolar
     return session
 
 
-def displayEpipolarF(I1, I2, F, points=None, *, interactive: bool | None = None):
+def displayEpipolarF(I1, I2, F, points=None, *, interactive: bool | None = None, matches=None):
     """Show the epipolar lines in image 2 of points of image 1.
 
     Parameters
@@ -623,13 +623,29 @@ def displayEpipolarF(I1, I2, F, points=None, *, interactive: bool | None = None)
         Omitted: the interactive picker (click in image 1, or type x1/y1).
     interactive : bool, optional
         Show the picker even though ``points`` were given (they are its first picks).
+    matches : array_like, shape (K, 2), optional
+        The known matches (x2, y2) in image 2 of ``points``, row by row: drawn on image 2 in the
+        colour of their line, so that a reader sees each line pass through its match (the
+        figure of Q2).  Needs ``points`` of the same length.
 
     Returns
     -------
     EpipolarSession
         Its ``picks`` hold every line; ``session.figure()`` redraws the static figure.
     """
-    return _run(EpipolarSession(I1, I2, F), points, interactive)
+    if matches is None:
+        return _run(EpipolarSession(I1, I2, F), points, interactive)
+    if points is None:
+        raise ValueError("matches: expected them with points (the matches of those points), got no points")
+    known = as_points(matches, "matches", dims=2, allow_extra_columns=False)
+    pts = as_points(points, "points", dims=2, allow_extra_columns=False)
+    if len(known) != len(pts):
+        raise ValueError(f"matches: expected one match per point ({len(pts)}), got {len(known)}")
+    given = iter(known)
+    session = EpipolarSession(I1, I2, F, lambda *_: next(given), far_threshold=5.0)
+    session = _run(session, pts, interactive)
+    session.match_fn = None  # later picks (the interactive picker) have no known match
+    return session
 
 
 def epipolarMatchGUI(I1, I2, F, match_fn, points=None, *, interactive: bool | None = None,

@@ -19,7 +19,9 @@ MyDrive/hw4 and MyDrive/Colab Notebooks); then the most recently saved notebook 
 any of them is used, and a line says which file it was (:func:`locate_notebook`).
 
 :func:`try_run` calls a function and turns ``NotImplementedError`` into a one-line note, so a
-notebook whose stubs are not written yet still runs from top to bottom.
+notebook whose stubs are not written yet still runs from top to bottom; any other exception
+becomes a short message naming the function that failed, so a crash in one figure cell stops
+that step only and the later cells still run (they see None and skip what needs it).
 """
 
 from __future__ import annotations
@@ -219,12 +221,36 @@ def from_notebook(notebook, *names: str, folder=None):
     return values[0] if len(values) == 1 else values
 
 
-def try_run(fn: Callable, *args, **kwargs):
-    """``fn(*args, **kwargs)``, or None with a one-line note when something is not implemented yet.
+def _where_it_failed(tb) -> tuple[str | None, int | None]:
+    """(function, line) of the innermost traceback frame outside the installed libraries and the
+    kit's own packages: the student's code, when it is in the traceback at all."""
+    import sysconfig
 
-    Only ``NotImplementedError`` (what the stubs raise) is caught; every other error is a real
-    bug and is raised as usual.  The note names the function whose stub raised, which may be
-    one called by ``fn`` (a check, or a function loaded from an earlier notebook).
+    folders = {Path(sysconfig.get_paths()[k]).resolve() for k in ("stdlib", "platstdlib", "purelib", "platlib")}
+    kit = Path(__file__).resolve().parents[1]
+    folders |= {kit / package for package in ("core", "scenes", "starter", "judging", "handin")}
+    prefixes = tuple(str(f) + os.sep for f in folders)
+    found = (None, None)
+    while tb is not None:
+        name = tb.tb_frame.f_code.co_filename
+        resolved = name if name.startswith("<") else str(Path(name).resolve())
+        if not resolved.startswith(prefixes):
+            found = (tb.tb_frame.f_code.co_name, tb.tb_lineno)
+        tb = tb.tb_next
+    return found
+
+
+def try_run(fn: Callable, *args, **kwargs):
+    """``fn(*args, **kwargs)``, or None with a short note when it could not finish.
+
+    ``NotImplementedError`` (what the stubs raise) gives "<name>: not implemented yet, so this
+    step is skipped."; the note names the function whose stub raised, which may be one called by
+    ``fn`` (a check, or a function loaded from an earlier notebook).  Any other ``Exception``
+    gives "<fn> failed: <Type>: <first line of the message>", with the function and line of your
+    code where it was raised when that is another place, and the advice to call the function
+    directly for the full traceback.  Either way the cell goes on and its caller gets None, so
+    one crash does not turn every later cell into a NameError.  ``KeyboardInterrupt`` (the stop
+    button) and ``SystemExit`` pass through.
 
     Examples
     --------
@@ -233,17 +259,29 @@ def try_run(fn: Callable, *args, **kwargs):
     >>> try_run(stub, 1) is None
     stub: not implemented yet, so this step is skipped.
     True
+    >>> try_run(lambda: 1 / 0) is None
+    <lambda> failed: ZeroDivisionError: division by zero. This step is skipped; call it directly to see the traceback.
+    True
     """
     if not callable(fn):
         raise ValueError(f"fn: expected a function, got {type(fn).__name__}")
+    caller = getattr(fn, "__name__", None) or "this step"
     try:
         return fn(*args, **kwargs)
     except NotImplementedError as exc:
         tb = exc.__traceback__
         while tb is not None and tb.tb_next is not None:
             tb = tb.tb_next
-        culprit = tb.tb_frame.f_code.co_name if tb is not None else getattr(fn, "__name__", "this step")
-        caller = getattr(fn, "__name__", None)
-        after = f" ({caller} skipped)" if caller and caller != culprit else ""
+        culprit = tb.tb_frame.f_code.co_name if tb is not None else caller
+        after = f" ({caller} skipped)" if caller != culprit else ""
         print(f"{culprit}: not implemented yet, so this step is skipped{after}.")
+        return None
+    except Exception as exc:  # noqa: BLE001 - contained on purpose: one failed step, not a failed notebook
+        first = (str(exc).strip().splitlines() or [""])[0]
+        if len(first) > 160:
+            first = first[:157] + "..."
+        what = f"{type(exc).__name__}: {first}" if first else type(exc).__name__
+        function, line = _where_it_failed(exc.__traceback__)
+        place = f" (raised in {function}, line {line})" if function and function != caller else ""
+        print(f"{caller} failed: {what}{place}. This step is skipped; call it directly to see the traceback.")
         return None

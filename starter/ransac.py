@@ -1,15 +1,21 @@
 """RANSAC, written once: a generic loop and ``ransacF`` built on a student's ``eightpoint``.
 
 Randomness comes only from the numpy Generator passed in (``rng``), so a run is reproducible.
+A run that lasts (a student's ``eightpoint`` that calls ``refineF`` costs tens of ms a sample)
+shows a tqdm progress bar on stdout after two seconds; its carriage returns leave one final
+line in a saved notebook, Colab and the PDF alike, and a quick run prints nothing.
 """
 
 from __future__ import annotations
 
 import inspect
+import math
+import sys
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from tqdm import tqdm
 
 from core.geometry import epipolar_distances
 from core.validate import as_points, as_positive_scalar, same_length
@@ -42,7 +48,8 @@ class RansacResult:
 
 def ransac(n: int, fit: Callable[[np.ndarray], object], residuals: Callable[[object], np.ndarray], *,
            min_samples: int, threshold: float, rng: np.random.Generator, max_trials: int = 1000,
-           confidence: float = 0.99, local_fit: Callable[[np.ndarray], object] | None = None) -> RansacResult:
+           confidence: float = 0.99, local_fit: Callable[[np.ndarray], object] | None = None,
+           progress: str | None = None) -> RansacResult:
     """Generic RANSAC over ``n`` data items, with adaptive stopping.
 
     Parameters
@@ -57,31 +64,52 @@ def ransac(n: int, fit: Callable[[np.ndarray], object], residuals: Callable[[obj
         best model is, with probability ``confidence``, as good as it will get.
     local_fit : optional, inlier indices -> model fitted on all of them (or None); tried on
         every new best sample and kept when it has at least as many inliers.
+    progress : a label for a progress bar (tqdm, on stdout, shown only when the run lasts over
+        two seconds; its total drops as adaptive stopping lowers the samples needed); None: no bar.
     """
     if n < min_samples:
         raise ValueError(f"n: expected at least {min_samples} data items, got {n}")
     best_model, best_inliers, best_count = None, np.zeros(n, bool), -1
     needed, trials = float(max_trials), 0
-    while trials < min(max_trials, needed):
-        trials += 1
-        sample = rng.choice(n, size=min_samples, replace=False)
-        model = fit(sample)
-        if model is None:
-            continue
-        inliers = residuals(model) < threshold
-        count = int(inliers.sum())
-        if count > best_count:
-            if local_fit is not None and count >= min_samples:
-                # Local optimisation (Chum et al. 2003): a fit on all inliers of a new best
-                # sample usually finds more of them, so the adaptive bound drops much sooner.
-                refit = local_fit(np.flatnonzero(inliers))
-                if refit is not None:
-                    refit_inliers = residuals(refit) < threshold
-                    if refit_inliers.sum() >= count:
-                        model, inliers, count = refit, refit_inliers, int(refit_inliers.sum())
-            best_model, best_inliers, best_count = model, inliers, count
-            needed = adaptive_trials(count / n, min_samples, confidence)
+    bar = None if progress is None else tqdm(total=max_trials, desc=progress, unit="sample", file=sys.stdout,
+                                             delay=2.0, mininterval=0.5, leave=True, dynamic_ncols=False, ncols=90)
+    try:
+        while trials < min(max_trials, needed):
+            trials += 1
+            if bar is not None:
+                bar.update(1)
+            best = _one_trial(n, fit, residuals, min_samples, threshold, rng, local_fit, best_count)
+            if best is not None:
+                best_model, best_inliers, best_count = best
+                needed = adaptive_trials(best_count / n, min_samples, confidence)
+                if bar is not None:
+                    bar.total = max(trials, int(min(max_trials, math.ceil(needed))))
+    finally:
+        if bar is not None:
+            bar.total = trials  # adaptive stopping: the bar ends full
+            bar.close()
     return RansacResult(best_model, best_inliers, trials)
+
+
+def _one_trial(n, fit, residuals, min_samples, threshold, rng, local_fit, best_count):
+    """One sample of :func:`ransac`: (model, inliers, count) when it beats ``best_count``, else None."""
+    sample = rng.choice(n, size=min_samples, replace=False)
+    model = fit(sample)
+    if model is None:
+        return None
+    inliers = residuals(model) < threshold
+    count = int(inliers.sum())
+    if count <= best_count:
+        return None
+    if local_fit is not None and count >= min_samples:
+        # Local optimisation (Chum et al. 2003): a fit on all inliers of a new best
+        # sample usually finds more of them, so the adaptive bound drops much sooner.
+        refit = local_fit(np.flatnonzero(inliers))
+        if refit is not None:
+            refit_inliers = residuals(refit) < threshold
+            if refit_inliers.sum() >= count:
+                model, inliers, count = refit, refit_inliers, int(refit_inliers.sum())
+    return model, inliers, count
 
 
 def hartley_normalization(pts: np.ndarray) -> np.ndarray:
@@ -117,7 +145,7 @@ def _without_refinement(eightpoint: Callable) -> Callable:
 
 
 def ransacF(pts1, pts2, M, eightpoint: Callable, nIters: int = 1000, tol: float = 1.0,
-            rng: np.random.Generator | int | None = None, confidence: float = 0.99):
+            rng: np.random.Generator | int | None = None, confidence: float = 0.99, progress: bool = True):
     """Robust fundamental matrix from matches with outliers.
 
     Draws 8 matches at a time, fits F with the given ``eightpoint(pts1, pts2, M)``, and counts
@@ -136,6 +164,7 @@ def ransacF(pts1, pts2, M, eightpoint: Callable, nIters: int = 1000, tol: float 
     nIters : most samples to draw (fewer when adaptive stopping says it is enough).
     tol : inlier threshold in pixels, distance of x2 to the line F x1.
     rng : numpy Generator (or an int seed); None means seed 0, so runs are reproducible.
+    progress : show a progress bar when the run lasts over two seconds (see :func:`ransac`).
 
     Returns
     -------
@@ -172,7 +201,8 @@ def ransacF(pts1, pts2, M, eightpoint: Callable, nIters: int = 1000, tol: float 
         return F if np.all(np.isfinite(F)) else None
 
     result = ransac(n, fit, residuals, min_samples=8, threshold=tol, rng=rng,
-                    max_trials=int(nIters), confidence=confidence, local_fit=fit_all)
+                    max_trials=int(nIters), confidence=confidence, local_fit=fit_all,
+                    progress="RANSAC" if progress else None)
     if result.model is None:
         raise ValueError("pts1, pts2: no sample of 8 matches gave a fundamental matrix (degenerate data)")
     F, inliers = result.model, result.inliers

@@ -200,6 +200,25 @@ def test_display_epipolar_f_without_matcher(F, images):
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_display_epipolar_f_draws_the_known_matches_on_their_lines(F, images):
+    pts = np.array([[10, 10], [80, 60], [140, 100]])
+    known = np.array([project_on_line(F, x, y) for x, y in pts])
+    session = displayEpipolarF(*images, F, points=pts, matches=known)
+    np.testing.assert_allclose(session.matches(), known)
+    fig = session.figure()
+    lines = image2_lines(fig)
+    rings2 = [ln for ln in fig.axes[1].lines if ln.get_marker() == "o"]
+    # Each match is ringed in image 2 in its line's colour, and lies on that line.
+    assert [r.get_markeredgecolor() for r in rings2] == [ln.get_color() for ln in lines]
+    for ring, (x1, y1) in zip(rings2, pts):
+        assert off_line(F, x1, y1, *ring.get_xydata()[0]) < 1e-9
+    assert session.match_fn is None  # a later pick (the picker) has no known match
+    with pytest.raises(ValueError, match="matches: expected one match per point"):
+        displayEpipolarF(*images, F, points=pts, matches=known[:2])
+    with pytest.raises(ValueError, match="matches: expected them with points"):
+        displayEpipolarF(*images, F, matches=known)
+
+
 def test_a_match_far_from_the_line_warns(F, images):
     def sloppy(im1, im2, F_, x1, y1):
         x2, y2 = project_on_line(F_, x1, y1)

@@ -11,6 +11,7 @@ import ast
 import json
 import os
 import re
+import shutil
 from pathlib import Path
 
 import nbformat
@@ -365,9 +366,27 @@ def test_parse_source_cells_and_directives():
     assert blocks[3].text.startswith("## Q2\nbody\n```text\n+++")  # a fence in markdown is left alone
 
 
+def test_plus_lines_mark_a_page_start_and_plumbing_for_the_pdf():
+    from handin.html import PAGE_START_TAG, PLUMBING_TAG
+
+    blocks = nbk.parse_source("intro\n+++ plumbing\nhow to use Colab\n+++ page\n### Errors (Q3.2)\ntext\n+++\nplain\n")
+    assert [(b.args, b.text.splitlines()[0]) for b in blocks] == [
+        ((), "intro"), (("plumbing",), "how to use Colab"), (("page",), "### Errors (Q3.2)"), ((), "plain")]
+    q3 = nbk.build_notebook("q3_metric_reconstruction", "student")
+    (page,) = [c for c in q3.cells if PAGE_START_TAG in c.metadata.get("tags", [])]
+    assert page.source.startswith("### Reprojection errors (Q3.2")
+    q1 = nbk.build_notebook("q1_proofs", "student")
+    plumbing = [c for c in q1.cells if PLUMBING_TAG in c.metadata.get("tags", [])]
+    # The Colab how-to, the Colab link and the setup cell: the kit's, not the student's work.
+    assert [c.cell_type for c in plumbing] == ["markdown", "markdown", "code"]
+    assert plumbing[0].source.startswith("**Working on Colab.**")
+
+
 @pytest.mark.parametrize("text, message", [
     ("```python\nx = 1\n", "never closed"),
     ("## Q2 The eight-point algorithm [10 points]\n", "bare"),
+    ("+++ pagebreak\ntext\n", "'\\+\\+\\+ WORD'"),
+    ("+++ page\n```python\nx = 1\n```\n", "followed by a markdown cell"),
 ])
 def test_parse_source_rejects(text, message):
     with pytest.raises(nbk.SourceError, match=message):
@@ -510,20 +529,32 @@ def test_from_notebook_errors_say_what_to_do(tmp_path):
         from_notebook("x.ipynb", "g", folder=tmp_path)
 
 
-def test_try_run_reports_stubs_and_passes_real_errors(capsys):
+def test_try_run_reports_stubs_and_contains_real_errors(capsys):
     def stub(x):
         raise NotImplementedError()
 
     def check(fn):
         return fn(1)
 
+    def inner(x):
+        return [][x]
+
+    def outer():
+        return inner(3)
+
     assert try_run(stub, 1) is None
     assert try_run(check, stub) is None
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("stub: not implemented yet") and "(check skipped)" in out[1]
     assert try_run(lambda a, b=0: a + b, 1, b=2) == 3
-    with pytest.raises(ZeroDivisionError):
-        try_run(lambda: 1 / 0)
+    # A real error is one short line naming the function called and where it was raised; the
+    # caller gets None, so the cells after it still run.
+    assert try_run(outer) is None
+    (line,) = capsys.readouterr().out.splitlines()
+    assert line.startswith("outer failed: IndexError: list index out of range (raised in inner, line ")
+    assert "call it directly to see the traceback" in line
+    with pytest.raises(KeyboardInterrupt):
+        try_run(lambda: (_ for _ in ()).throw(KeyboardInterrupt))
 
 
 # ------------------------------------------------------------------------------- the release
@@ -713,6 +744,20 @@ def test_student_notebook_runs_with_stubs(stem, homework_data, monkeypatch, with
         if name != "plot_3d_keypoint_video":
             assert f"check {name}: not implemented yet" in text
     assert "not implemented yet" in text
+
+
+@pytest.mark.slow
+def test_a_crash_stops_its_own_step_only(tmp_path, homework_data, monkeypatch):
+    """An eightpoint that raises (not a stub) makes each step that needs it print one line naming
+    it; every cell of Q3's notebook still runs (no NameError cascade) and the checks report."""
+    _write_nb(tmp_path / "q2_eightpoint.ipynb", "def eightpoint(pts1, pts2, M):\n    return [][len(pts1)]")
+    shutil.copy(nbk.output_path("q3_metric_reconstruction", "key"), tmp_path)
+    nb = execute(tmp_path / "q3_metric_reconstruction.ipynb", homework_data, monkeypatch)  # raises on any error
+    text = "\n".join(outputs_text(c) for c in nb.cells if c.cell_type == "code")
+    assert "eightpoint failed: IndexError: list index out of range" in text
+    last = [c for c in nb.cells if c.cell_type == "code"][-1]
+    assert "reprojection_errors(" in last.source and "eightpoint failed" in outputs_text(last)
+    assert "check findM2: 3/3 passed" in text
 
 
 @pytest.mark.slow

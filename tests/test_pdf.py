@@ -386,6 +386,33 @@ def test_setup_cell_is_one_line_and_keeps_its_output():
     assert pre.preprocess_cell(other, {}, 1)[0].source == other.source
 
 
+def test_colab_notes_are_left_out_and_their_page_break_moves_on():
+    tagged = new_markdown_cell("How to work on Colab: ...", metadata={"tags": [pdf_html.PLUMBING_TAG,
+                                                                              pdf_html.PAGE_START_TAG]})
+    legacy = new_markdown_cell("*Colab: this kit comes from file:///srv/kit, which Colab cannot open; ...*")
+    linked = new_markdown_cell("[Open this notebook in Colab](https://colab.research.google.com/x), then ...")
+    kept = [new_markdown_cell("# Homework 4, problem 2"), new_markdown_cell("The data: two views.")]
+    nb = new_notebook(cells=[kept[0], tagged, legacy, linked, kept[1]])
+    out, _ = pdf_html.PlumbingNotesPreprocessor().preprocess(nb, {})
+    assert [c.source for c in out.cells] == [c.source for c in kept]
+    assert pdf_html.PAGE_START_TAG in out.cells[1].metadata["tags"]
+
+
+def test_cli_says_once_that_the_hand_in_notebook_is_left_out(sample, tmp_path, capsys):
+    from handin.__main__ import main
+    from handin.hand_in_notebook import HAND_IN_NAME, hand_in_notebook
+
+    _browser_or_skip()
+    _mathjax_or_skip()
+    folder = tmp_path / "mine"
+    shutil.copytree(sample[0], folder)
+    nbformat.write(hand_in_notebook("print('setup')"), folder / HAND_IN_NAME)
+    assert main(["pdf", str(folder), "--out", str(tmp_path / "hw4.pdf"),
+                 "--code-zip", str(tmp_path / "hw4_code.zip")]) in (0, 1)  # 1: functions missing
+    said = capsys.readouterr()
+    assert (said.out + said.err).count(f"left out {HAND_IN_NAME}") == 1, said
+
+
 def test_css_wraps_at_spaces_not_inside_words():
     css = (pdf_html.ASSETS / "hw4.css").read_text()
     assert "overflow-wrap: anywhere" not in css and "word-break: break-all" not in css

@@ -95,6 +95,44 @@ def test_no_setup_cell_pages_one_line_per_notebook(printed_key):
     assert sum("Setup cell of the homework kit" in line for line in text.splitlines()) == len(NOTEBOOKS)
 
 
+def _squeezed(text: str) -> str:
+    # pdftotext wraps long lines: compare without any whitespace.
+    return re.sub(r"\s+", "", text)
+
+
+def test_no_plumbing_on_any_page(printed_key):
+    """The kit's plumbing is not the student's work: the refineF comparison's code (now in
+    starter.refine_comparison, called in one line), the Colab link and how-to are on no page."""
+    import inspect
+
+    from starter import refine_comparison
+
+    _, pages, _ = printed_key
+    text = _squeezed("\n".join(pages))
+    body = inspect.getsource(refine_comparison.reprojection_errors).split('"""')[2]
+    code = [line.strip() for line in body.splitlines() if len(line.strip()) >= 20]
+    assert len(code) > 15
+    # The lines of the 30-line cell the notebook held before, and the comparison's lines now.
+    code += ["def without_refineF(eightpoint):", 'names["refineF"] = lambda F, pts1, pts2:',
+             "per_point = per_point + np.sum("]
+    assert [line for line in code if _squeezed(line) in text] == []
+    for note in ("Open this notebook in Colab", "Colab: this kit comes from", "Working on Colab",
+                 "Placeholder link", "Save a copy in Drive"):
+        assert _squeezed(note) not in text, note
+    assert "reprojection_errors(eightpoint, findM2, triangulate, d)" in "\n".join(pages)
+
+
+def test_q3_2_errors_are_printed_on_their_own_page(printed_key):
+    """Q3.2's reprojection errors need findM2 (Q3.3), so they come after it, on a page of their own."""
+    _, pages, _ = printed_key
+    firsts = [first_line(p) for p in pages]
+    q33 = next(i for i, f in enumerate(firsts) if f.startswith("Q3.3"))
+    errors = next(i for i, f in enumerate(firsts) if f.startswith("Reprojection errors (Q3.2"))
+    assert errors > q33
+    assert not [i for i in range(q33, errors) if "total reprojection error" in pages[i]], firsts[q33:errors + 1]
+    assert "total reprojection error" in pages[errors]
+
+
 def test_check_reports_wrap_at_spaces(printed_key):
     """No line of a check report ends inside a word: the words printed whole inside lines of the
     PDF are the vocabulary, and a line end joined to the next line's start must not form one of

@@ -10,7 +10,10 @@ Two inputs, each written once:
 
 Source format
 -------------
-Markdown, split into cells by a line ``+++`` and before every question heading.  A question
+Markdown, split into cells by a line ``+++`` and before every question heading.  A line
+``+++ page`` splits too, and the markdown cell after it starts a new page in the PDF (a section
+printed apart from the question above it, such as Q3.2's errors, which come after Q3.3); after a
+line ``+++ plumbing`` it is the kit's plumbing (how to work on Colab), left out of the PDF.  A question
 heading is written bare (``## Q3.2``); the builder completes it from ``core.manifest``
 (``## Q3.2 Triangulation [10 points]``), so titles and points live in one place.  Fenced blocks
 opened by these lines become special cells (any other fence stays markdown):
@@ -20,8 +23,9 @@ opened by these lines become special cells (any other fence stays markdown):
                                ``### BEGIN SOLUTION`` / ``### END SOLUTION`` lines inside work
                                as in nbgrader: the key drops the markers, the student version
                                gets the nbgrader stub instead of the region.
-``` ```{colab}``               the "Open in Colab" link.
-``` ```{setup}``               the first code cell: finds (locally) or fetches (Colab) the kit.
+``` ```{colab}``               the "Open in Colab" link (left out of the PDF).
+``` ```{setup}``               the first code cell: finds (locally) or fetches (Colab) the kit
+                               (one line in the PDF).
 ``` ```{solution} name``       the stub / reference / nbgrader cell of function ``name``.
 ``` ```{check} name``          the self-check cell ``check_<name>(<name>)`` from
                                ``starter.checks.<module of name in solutions/>``.

@@ -12,6 +12,8 @@ import nbformat
 
 from core.manifest import QUESTIONS, Question
 
+from handin.html import PAGE_START_TAG, PLUMBING_TAG
+
 from .setup import Settings, _colab_text, _setup_text
 from .source import _BARE_HEADING, Block, Extracted, SourceError, _heading_text, _referenced, extract_function
 
@@ -147,7 +149,8 @@ def _bound_names(text: str, where: str) -> set[str]:
 def _markdown_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
     m = _BARE_HEADING.match(block.text.splitlines()[0])
     if not m:
-        return [_markdown(block.text)]
+        tags = [{"page": PAGE_START_TAG, "plumbing": PLUMBING_TAG}[a] for a in block.args]
+        return [_markdown(block.text, tags=tags)] if tags else [_markdown(block.text)]
     hashes, qid = m.groups()
     q = next((q for q in QUESTIONS if q.id == qid), None)
     if q is None or q.notebook != st.stem:
@@ -161,14 +164,14 @@ def _markdown_block(block: Block, st: _State, where: str) -> list[nbformat.Noteb
 
 
 def _colab_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
-    return [_markdown(_colab_text(st.stem, st.settings))]
+    return [_markdown(_colab_text(st.stem, st.settings), tags=[PLUMBING_TAG])]
 
 
 def _setup_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
     if st.code_cells:
         raise SourceError(f"{where}: the setup cell must be the first code cell")
     st.setup_seen = True
-    return [_code(_setup_text(st.settings))]
+    return [_code(_setup_text(st.settings), tags=[PLUMBING_TAG])]
 
 
 def _python_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:

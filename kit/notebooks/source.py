@@ -21,6 +21,11 @@ _BARE_HEADING = re.compile(r"^(#{1,3})\s*(Q\d+(?:\.\d+)?)\s*$")
 _FENCE = re.compile(r"^```(python|\{(\w+)\})[ \t]*(.*)$")
 
 
+# What a "+++ WORD" line says about the markdown cell after it: it starts a printed page, or it
+# is the kit's plumbing (how to work on Colab...), left out of the PDF.
+MARKDOWN_MARKS = ("page", "plumbing")
+
+
 class SourceError(ValueError):
     """A notebook source or a solution module breaks the rules of this module (says where)."""
 
@@ -33,7 +38,8 @@ class Block:
     """One cell of a source file.
 
     kind: "markdown", "python", or a directive ("colab", "setup", "solution", "check", "answer");
-    args: the words after the fence; text: the content; line: where it starts (1-based).
+    args: the words after the fence (a markdown block after ``+++ page``: ("page",), after
+    ``+++ plumbing``: ("plumbing",)); text: the content; line: where it starts (1-based).
     """
 
     kind: str
@@ -53,12 +59,14 @@ def parse_source(text: str, name: str = "<source>") -> list[Block]:
     md: list[str] = []
     md_start = 1
     in_md_fence = False
+    mark = None  # how the next markdown block prints: "page" or "plumbing" (a "+++ WORD" line)
 
     def flush(next_line: int):
-        nonlocal md, md_start
+        nonlocal md, md_start, mark
         body = "\n".join(md).strip("\n")
         if body.strip():
-            blocks.append(Block("markdown", (), body, md_start))
+            blocks.append(Block("markdown", (mark,) if mark else (), body, md_start))
+            mark = None
         md, md_start = [], next_line
 
     i = 0
@@ -68,6 +76,8 @@ def parse_source(text: str, name: str = "<source>") -> list[Block]:
         if m:
             flush(lineno)
             kind = "python" if m.group(1) == "python" else m.group(2)
+            if mark:
+                raise SourceError(f"{name}, line {lineno}: '+++ {mark}' must be followed by a markdown cell")
             body = []
             i += 1
             while i < len(lines) and lines[i].rstrip() != "```":
@@ -80,8 +90,13 @@ def parse_source(text: str, name: str = "<source>") -> list[Block]:
         elif line.startswith("```"):
             in_md_fence = not in_md_fence
             md.append(line)
-        elif not in_md_fence and line.strip() == "+++":
+        elif not in_md_fence and line.split() and line.split()[0] == "+++":
+            words = line.split()[1:]
+            if len(words) > 1 or (words and words[0] not in MARKDOWN_MARKS):
+                raise SourceError(f"{name}, line {lineno}: expected '+++' or '+++ WORD' with WORD one of "
+                                  f"{list(MARKDOWN_MARKS)}, got {line.strip()!r}")
             flush(lineno + 1)
+            mark = words[0] if words else mark
         elif not in_md_fence and _BARE_HEADING.match(line):
             flush(lineno)
             md.append(line)
