@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from core.manifest import NOTEBOOKS, QUESTIONS
+from core.paths import KIT_ROOT
 from core.notebook import NotebookUnreadable, definitions, find_notebook, notebook_stem, python_cells
 
 __all__ = ["NOTEBOOKS_ENV", "from_notebook", "homework_notebooks", "locate_notebook", "notebook_definitions",
@@ -227,8 +228,7 @@ def _where_it_failed(tb) -> tuple[str | None, int | None]:
     import sysconfig
 
     folders = {Path(sysconfig.get_paths()[k]).resolve() for k in ("stdlib", "platstdlib", "purelib", "platlib")}
-    kit = Path(__file__).resolve().parents[1]
-    folders |= {kit / package for package in ("core", "scenes", "starter", "judging", "handin")}
+    folders |= {KIT_ROOT / package for package in ("core", "scenes", "starter", "judging", "handin")}
     prefixes = tuple(str(f) + os.sep for f in folders)
     found = (None, None)
     while tb is not None:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import shutil
 import sys
 import time
-from pathlib import Path
 
 import nbformat
 import numpy as np
@@ -18,9 +17,8 @@ import pytest
 import scipy.optimize
 from scipy.optimize import minimize  # bound by name at the top level, as students write it
 
+from core.paths import KIT_ROOT
 from starter.slow_call import LEAST_SQUARES_ADVICE, watched
-
-KIT_ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_a_slow_call_is_announced_while_it_runs():
