@@ -9,7 +9,8 @@ html elements").  So a question's picture is a test of its own with ``output_for
 title and measures, and the question's verdict lines (check names, passed or failed, points;
 their feedback is in the checks' own tests).  Whether the sanitiser keeps ``data:`` images is not
 documented: when it does not, the student still reads the title, the alt text, the measures and
-the verdicts.  The test has no score and no max_score (it counts for nothing).
+the verdicts.  The test has no score and no max_score (it counts for nothing); its status is
+its question's (passed at full marks), so that Gradescope colours it as the checks beside it.
 
 Visibility: a picture is never shown earlier than any test of its question in the same
 results.json (the strictest of their visibilities: ``visible`` < ``after_due_date`` <
@@ -59,7 +60,7 @@ def picture_tests(data: dict, result: SubmissionResult, figures: Mapping) -> lis
         out.append((mine[-1], {
             "name": f"{q.id} picture: {visible(title, 200, newlines=False)}",
             "number": f"{q.id[1:]}.0",
-            "status": "passed",
+            "status": "passed" if q.score >= q.max_score - 1e-9 else "failed",  # the question's, for its colour
             "output": ("<p>What your functions returned on the public data (not graded):</p>"
                        + figure_html(figure) + verdict_lines(q, feedback=False)),
             "output_format": "html",

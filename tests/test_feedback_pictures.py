@@ -140,6 +140,7 @@ def test_gradescope_pictures_are_shown_no_earlier_than_their_checks(layout, q2, 
     gradescope_pictures.add_pictures(data, result, raw)
     shown = {t["name"].split()[0]: t for t in data["tests"] if " picture: " in t["name"]}
     assert shown["Q2"]["visibility"] == q2 and shown["Q3.2"]["visibility"] == q32
+    assert shown["Q2"]["status"] == "failed" and shown["Q3.2"]["status"] == "passed"  # their question's
     for t in shown.values():
         assert t["output_format"] == "html" and "score" not in t and "max_score" not in t
         assert 'src="data:image/png;base64,' in t["output"] and 'alt="A line plot' in t["output"]
