@@ -62,6 +62,10 @@ What students see (Gradescope's test visibility, per group, set at build time wi
   reach students only when the staff publish the grades).  A check the grader marks hidden stays
   hidden whatever the group says.
 
+- pictures: after each question's tests, one unscored test with the picture of what the student's
+  functions returned on the public data (``autograder.gradescope_pictures``: html output, the
+  figure as a ``data:`` image), shown no earlier than any test of its question.
+
 The summary always shows the base points and the extra credit apart ("Base points: 75 / 75",
 "Extra credit: 15 / 15"); Gradescope's total is the top-level score, extra credit included.
 

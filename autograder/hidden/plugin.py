@@ -21,7 +21,9 @@ error is the grader's: zero with "internal error" for the student and the traceb
 Options used by the grader (``autograder.grade``): ``--hidden-cache`` (the batch's hidden inputs,
 made once; each submission gets its own draw of them, ``autograder.hidden.inputs.draw``, and its
 result names the draw by a short digest, ``configuration["draw"]``), ``--sandbox-spec`` (the grader's sandbox, not probed again), ``--results`` (the
-``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget``.
+``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget``,
+``--pictures`` (after the checks, the unscored picture step of ``test_pictures.py``; its record goes
+into the results file as ``pictures``, for ``autograder.pictures.decode``).
 """
 
 from __future__ import annotations
