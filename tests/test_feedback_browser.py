@@ -21,6 +21,7 @@ from autograder import pictures as step
 from autograder.hidden.plugin import LocalStudent
 from tests import picture_standin
 from tests.test_browser_widgets import CHROMIUM_ARGS, chromium_path
+from tests.test_gradescope import bundle  # noqa: F401 - the Gradescope bundle fixture (built once a session)
 from tests.test_feedback_pictures import HOSTILE, good_triangulate, hostile_eightpoint, result_with
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -99,3 +100,27 @@ def test_gradescope_results_json_pictures_in_a_browser(browser, tmp_path, layout
                     + "".join(f"<section>{h}</section>" for h in html) + "</body></html>")
     shown = open_page(browser, page)
     check_shown(shown, 1)
+
+
+def test_run_autograder_results_json_carries_the_pictures(browser, bundle, tmp_path):
+    # The real channel: the bundle's run_autograder grades the answer key, results.json is read
+    # back and every html output is opened as it stands.
+    pytest.importorskip("starter.checks.pictures", reason="the pictures module is not in this kit yet")
+    from tests.gradescope_like import unpack
+    from tests.test_gradescope import KEY, assert_valid_results, put, run_autograder
+
+    ag = unpack(bundle, tmp_path)
+    put(ag, *sorted(KEY.glob("*.ipynb")))
+    data = run_autograder(ag)
+    assert_valid_results(data)
+    pictures = [t for t in data["tests"] if " picture: " in t["name"]]
+    assert pictures and all(t["output_format"] == "html" and "score" not in t for t in pictures)
+    assert {t["visibility"] for t in pictures} == {"after_published"}  # the checks' default group
+    page = tmp_path / "gradescope_like.html"
+    page.write_text("<!DOCTYPE html><html><head><meta charset='utf-8'></head><body>"
+                    + "".join(f"<section>{t['output']}</section>" for t in pictures) + "</body></html>")
+    shown = open_page(browser, page)
+    assert len(shown["images"]) == sum('<img ' in t["output"] for t in pictures) >= 1
+    for img in shown["images"]:
+        assert img["complete"] and img["width"] > 0 and img["alt"].strip()
+    assert all(u.startswith(("file:", "data:")) for u in shown["requests"])
