@@ -177,3 +177,18 @@ def test_the_class_report_shows_one_nameless_example_per_named_mistake(tmp_path)
     png, alt = examples[("Q3.2", "some mistake")]
     assert png == (graded / "adam" / "figures" / "Q3_2.png").read_bytes()
     assert "adam" not in alt and "zoe" not in alt
+
+
+def test_the_report_page_puts_the_example_beside_its_mistake(tmp_path):
+    from autograder.review.report import write_report
+
+    graded = tmp_path / "graded"
+    figure = step.figures_of({"Q2": run({"eightpoint": good_eightpoint})})
+    for name in ("student<i>one", "student-two"):
+        result = result_with("Likely mistake: F transposed.", student_id=name)
+        feedback_page.write(graded / name, result, figure)
+        result.write_gradescope(graded / name / "results.json")
+    html = write_report(graded, tmp_path / "report")["html"].read_text()
+    row = next(r for r in html.split("<tr>") if "F transposed" in r)
+    example = row.split("</td>")[-2]
+    assert "<img" in example and "A line plot" in example and "student" not in example
