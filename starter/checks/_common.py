@@ -37,9 +37,15 @@ def run_failed(report: CheckReport, out: Outcome, where: str) -> bool:
     return True
 
 
-def finish(report: CheckReport, verbose: bool) -> CheckReport:
+def finish(report: CheckReport, verbose: bool, fn=None, root=None) -> CheckReport:
+    """Print the report when ``verbose``; then, in a notebook, the figure of ``fn`` (the student's
+    function) on the public data (starter.checks.pictures; "figure not drawn: why" when it cannot be)."""
     if verbose:
         report.show()
+        if fn is not None:
+            from .pictures import show_after_check
+
+            show_after_check(report.title, fn, root)
     return report
 
 

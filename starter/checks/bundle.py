@@ -143,4 +143,4 @@ def check_bundleAdjustment(bundleAdjustment, *, scene: NoisyPair | None = None, 
         report.judged(jb.result(M2, w, *args, pr.optimum), pr.label)
         report.judged(jb.rotation(M2), pr.label)
         report.judged(jb.reported_errors(o1, o2, M2, w, *args), pr.label)
-    return finish(report, verbose)
+    return finish(report, verbose, bundleAdjustment, root)

@@ -127,7 +127,7 @@ def check_epipolarCorrespondence(epipolarCorrespondence, *, cases=None, root=Non
             return finish(report, verbose)
         if not run_failed(report, out, case.label):
             report.judged(jc.matches(out.value, case.truth2, case.tol, case.ref_share, case.pts1), case.label)
-    return finish(report, verbose)
+    return finish(report, verbose, epipolarCorrespondence, root)
 
 
 def _explain_call_error(out: Outcome) -> Outcome:
@@ -245,4 +245,4 @@ def check_compute3D_pts(compute3D_pts, *, cases=None, root=None, epipolarCorresp
         report.judged(jc.points3d(w, truth3d, tol3d, case.ref_share_3d, case.pts1,
                                   None if five else getattr(case, "M2", None),
                                   getattr(case, "flat_share_3d", 0.0)), case.label)
-    return finish(report, verbose)
+    return finish(report, verbose, compute3D_pts, root)

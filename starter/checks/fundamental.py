@@ -119,4 +119,4 @@ def check_eightpoint(eightpoint, *, scene: NoisyPair | None = None, root=None, v
             if Fd is not None:
                 # No ground truth: the given (noisy) matches are judged, as the handout uses them.
                 report.judged(jf.fit(Fd, data.pts1, data.pts2, _default_goal(data.M), data.M), "default data")
-    return finish(report, verbose)
+    return finish(report, verbose, eightpoint, root)

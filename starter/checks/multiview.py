@@ -116,4 +116,4 @@ def check_MultiviewReconstruction(MultiviewReconstruction, *, probes=None, seque
                                label="returns (P (N, 3), err) (default data)")
             if P is not None:
                 report.judged(jm.reprojects_near(P, frame.C, frame.pts, THRES, _DEFAULT_MEDIAN_PX), "default data")
-    return finish(report, verbose)
+    return finish(report, verbose, MultiviewReconstruction, root)

@@ -92,4 +92,4 @@ def check_findM2(findM2, *, scene: NoisyPair | None = None, F=None, right=None, 
 
     if scene is None:
         report.notes.append(NO_DEFAULT_DATA)
-    return finish(report, verbose)
+    return finish(report, verbose, findM2, root)

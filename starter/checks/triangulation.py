@@ -60,4 +60,4 @@ def check_triangulate(triangulate, *, scene: NoisyPair | None = None, root=None,
                  "noisy uint16 matches")
     if scene is None:
         report.notes.append(NO_DEFAULT_DATA)
-    return finish(report, verbose)
+    return finish(report, verbose, triangulate, root)

@@ -1,0 +1,105 @@
+"""Q4.2's figure: the student's temple against the true one.
+
+Student side (:func:`run`): ``compute3D_pts(im1, im2, F, x1, y1, C1, C2)`` (or 2022-2024's
+``compute3D_pts(temple_pts1, intrinsics, F, im1, im2)``, called as judging.conventions says) on
+all templeCoords of the default data, with its true F and cameras (3, 4); returns w (P, 3).
+
+Trusted side (:func:`draw`): the student's points moved by the similarity that best fits them to
+the true points (a reconstruction is defined up to one; core.geometry.similarity_fit, on the
+finite points), drawn seen from above (x, z) and from the side (z, y) over the true points.  A
+temple from swapped x and y, or from wrong matches, does not lie on the true one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from .arrays import call, need, read
+from .picture import Picture, figure, fmt, to_picture
+from .public import need_truth, temple
+
+__all__ = ["FUNCTIONS", "NEAR_SHARE", "draw", "run"]
+
+FUNCTIONS = ("compute3D_pts",)
+NEAR_SHARE = 0.05   # a point is near the truth within this share of the temple's size
+
+
+def _inputs(s):
+    from starter.data import course_image
+
+    xy = np.column_stack([np.ravel(s.x1), np.ravel(s.y1)]).astype(np.uint16)
+    return course_image(s.im1), course_image(s.im2), xy
+
+
+def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
+    """{"w": (P, 3)} the student's points of every templeCoords point."""
+    from judging.conventions import compute3D_pts_five_calls, five_arguments, signature_of_callable
+    from judging.correspondence import read_points
+
+    s = need_truth(temple(root), "Q4.2")
+    fn = functions["compute3D_pts"]
+    im1, im2, xy = _inputs(s)
+    n = len(xy)
+    signature = signature_of_callable(fn)
+    if five_arguments(signature):
+        K1 = np.asarray(s.K1, float)
+        K2 = np.asarray(s.K2, float)
+        error = None
+        for c in compute3D_pts_five_calls(signature, xy.astype(float), K1, K2, s.F_true, im1.copy(), im2.copy()):
+            try:
+                return {"w": np.asarray(read(read_points, call(fn, "compute3D_pts", *c.args), n, name="compute3D_pts"))}
+            except Exception as exc:  # noqa: BLE001 - the next call convention is tried
+                error = error or exc
+        raise error
+    value = call(fn, "compute3D_pts", im1, im2, np.array(s.F_true, float), xy[:, :1].copy(), xy[:, 1:].copy(),
+                 np.array(s.C1, float), np.array(s.C2, float))
+    return {"w": np.asarray(read(read_points, value, n, name="compute3D_pts"), float)}
+
+
+def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
+    """The Picture of Q4.2.
+
+    measures: temple_size (the true points' RMS distance to their centroid, scene units),
+    median_error (distance of the moved points to the true ones, scene units), share_near (within
+    NEAR_SHARE of the temple's size), scale (of the similarity), n_finite (points that are numbers).
+    """
+    from core.geometry import similarity_fit
+
+    s = need_truth(temple(root), "Q4.2")
+    X = np.asarray(s.X_coords, float)
+    w = need(outputs, "w", (len(X), 3))
+    finite = np.all(np.isfinite(w), axis=1)
+    fit = similarity_fit(w[finite], X[finite]) if finite.sum() >= 3 else None
+    moved = np.full_like(X, np.nan)
+    if fit is not None:
+        sc, R, t = fit
+        moved[finite] = sc * w[finite] @ R.T + t
+    size = float(np.sqrt(np.mean(np.sum((X - X.mean(axis=0)) ** 2, axis=1))))
+    with np.errstate(invalid="ignore"):
+        err = np.linalg.norm(moved - X, axis=1)
+    near = err <= NEAR_SHARE * size
+    fig, axes = figure(2, 1, size=(5.2, 4.4))
+    for ax, (i, j, name) in zip(axes, ((0, 2, "seen from above (x, z)"), (2, 1, "seen from the side (z, y)"))):
+        ax.plot(X[:, i], X[:, j], ".", ms=4, color="#4fc3f7", gid="truth", label="true temple")
+        ax.plot(moved[near, i], moved[near, j], ".", ms=3, color="#2e7d32", gid="yours_near", label="yours, near")
+        ax.plot(moved[~near, i], moved[~near, j], ".", ms=3, color="#e53935", gid="yours_far", label="yours, far")
+        span = np.ptp(X[:, [i, j]], axis=0).max()
+        c = X[:, [i, j]].mean(axis=0)
+        ax.set_xlim(c[0] - span, c[0] + span)
+        ax.set_ylim(c[1] - span, c[1] + span)
+        if j == 1:
+            ax.invert_yaxis()
+        ax.set_aspect("equal")
+        ax.set_title(name, fontsize=9)
+    axes[0].legend(fontsize=7, loc="upper right")
+    m = {"temple_size": size, "median_error": float(np.median(err)) if finite.all() else float("inf"),
+         "share_near": float(near.mean()), "scale": float(fit[0]) if fit is not None else float("nan"),
+         "n_finite": float(finite.sum())}
+    alt = (f"Your {len(X)} temple points, moved by the similarity that fits them best (scale {fmt(m['scale'])}), over "
+           f"the true temple, seen from above and from the side: {int(near.sum())} of {len(X)} ({near.mean():.0%}) "
+           f"within {NEAR_SHARE:.0%} of the temple's size of the true point; median distance "
+           f"{fmt(m['median_error'])} for a temple of size {fmt(size)}"
+           + ("" if finite.all() else f"; {int((~finite).sum())} points are not numbers") + ".")
+    return to_picture("Q4.2", "compute3D_pts: your temple and the true one", fig, alt, m)

@@ -1,0 +1,141 @@
+"""Q6's figure: the student's car keypoints reprojected into the three views.
+
+Student side (:func:`run`): ``MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres) -> (P, err)``
+on the first time step of the public car data (three (12, 3) arrays [x, y, confidence] of pixels
+(x, y), cameras C (3, 4) = K [R | t], world -> camera) at THRES, the self-check's threshold (the
+default data holds detections at exactly that confidence, so using them shows).
+
+Trusted side (:func:`draw`): each view with its detections (filled: confidence above Thres, used by
+the handout's rule; hollow: at or below), the student's P reprojected (crosses, joined to their
+detections) and the true keypoints reprojected (default data).  The student's P is also compared
+with linear triangulations under three rules (confidence > Thres, >= Thres, every detection):
+the rule it is nearest names the threshold the code applied.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from core.geometry import project
+
+from .arrays import call, need, number, read
+from .geometry3d import triangulate_views
+from .picture import Picture, figure, fmt, to_picture
+from .public import car
+
+__all__ = ["FUNCTIONS", "RULES", "THRES", "draw", "rule_points", "run"]
+
+FUNCTIONS = ("MultiviewReconstruction",)
+THRES = 500.0
+RULES = ("confidence > Thres", "confidence >= Thres", "every detection")
+
+
+def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
+    """{"P": (12, 3) (rows of NaN: keypoints not reconstructed), "err": (1,) (NaN when not one number)}."""
+    from judging.multiview import read_P_err
+
+    frame = car(root, truth=False).frame
+    C, pts = frame.C, frame.pts
+    value = call(functions["MultiviewReconstruction"], "MultiviewReconstruction",
+                 np.array(C[0], float), np.array(pts[0], float), np.array(C[1], float), np.array(pts[1], float),
+                 np.array(C[2], float), np.array(pts[2], float), THRES)
+    P, err = read(read_P_err, value, len(pts[0]), name="MultiviewReconstruction")
+    return {"P": np.asarray(P, float), "err": number(err, "err")}
+
+
+def rule_points(C, pts, Thres) -> dict[str, np.ndarray]:
+    """Rule name -> (N, 3) linear triangulation of the detections the rule keeps (NaN: under two views)."""
+    out = {}
+    for rule, keep in zip(RULES, (lambda c: c > Thres, lambda c: c >= Thres, lambda c: np.ones_like(c, bool))):
+        views = [np.where(keep(p[:, 2])[:, None], p[:, :2], np.nan) for p in pts]
+        out[rule] = triangulate_views(C, views)
+    return out
+
+
+def _nearest_rule(P, rules) -> tuple[int, dict[str, float]]:
+    """(index of the rule whose points are nearest to P where the rules differ, mean distance per rule)."""
+    stack = np.stack(list(rules.values()))                      # (3, N, 3)
+    with np.errstate(invalid="ignore"):
+        same = np.all(np.isclose(stack, stack[0], atol=1e-9) | (np.isnan(stack) & np.isnan(stack[0])), axis=(0, 2))
+    rows = ~same
+    gaps = {}
+    for rule, Q in rules.items():
+        if not rows.any():
+            gaps[rule] = float("nan")
+            continue
+        with np.errstate(invalid="ignore"):
+            d = np.linalg.norm(P[rows] - Q[rows], axis=1)
+        # a point left out where the rule has one (or the reverse) counts as far
+        d = np.where(np.isnan(d) & (np.isnan(P[rows]).any(axis=1) == np.isnan(Q[rows]).any(axis=1)), 0.0, d)
+        gaps[rule] = float(np.mean(np.where(np.isnan(d), 1e6, d)))
+    finite = [g for g in gaps.values() if np.isfinite(g)]
+    return (int(np.argmin([gaps[r] for r in RULES])) if finite else -1), gaps
+
+
+def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
+    """The Picture of Q6.
+
+    measures: mean_reprojection_px (the student's P reprojected, to the detections above Thres of
+    the keypoints it reconstructed, pixels), n_reconstructed (finite rows of P), mean_error_3d (to the
+    true keypoints, world units; default data only), err_reported, nearest_rule (index in RULES of
+    the rule whose triangulation P is nearest, -1 when the rules agree everywhere), gap_<k> (mean
+    distance of P to rule k's points where the rules differ, world units; 1e6 for a point one has
+    and the other has not), detections_at_thres (detections whose confidence is exactly Thres).
+    """
+    pub = car(root)
+    frame, P_true = pub.frame, pub.P_true
+    C, pts = frame.C, frame.pts
+    n = len(pts[0])
+    P = need(outputs, "P", (n, 3))
+    err = float(need(outputs, "err", (1,))[0])
+    finite = np.all(np.isfinite(P), axis=1)
+    rules = rule_points(C, pts, THRES)
+    nearest, gaps = _nearest_rule(P, rules)
+    fig, axes = figure(3, 1, size=(4.6, 4.0))
+    dists = []
+    for k, (ax, Ck, p) in enumerate(zip(axes, C, pts)):
+        above = p[:, 2] > THRES
+        with np.errstate(all="ignore"):
+            q = project(Ck, P)
+        for (x0, y0), (x1, y1), ok in zip(p[:, :2], q, finite):
+            if ok:
+                ax.plot([x0, x1], [y0, y1], color="#ffb300", lw=0.8, gid="offset")
+        at = p[:, 2] == THRES
+        ax.plot(p[above, 0], p[above, 1], "o", ms=6, color="#1565c0", gid="detection_above")
+        ax.plot(p[~above & ~at, 0], p[~above & ~at, 1], "o", ms=6, mfc="none", mec="#1565c0", gid="detection_below")
+        ax.plot(p[at, 0], p[at, 1], "s", ms=8, mfc="none", mec="#c2185b", mew=1.5, gid="detection_at_thres")
+        ax.plot(q[finite, 0], q[finite, 1], "x", ms=6, color="#ff6f00", gid="yours")
+        if P_true is not None:
+            t = project(Ck, P_true)
+            ax.plot(t[:, 0], t[:, 1], "+", ms=7, color="#2e7d32", gid="truth")
+        for i, (x, y) in enumerate(p[:, :2]):
+            ax.text(x, y, f" {i}", fontsize=6, color="#555")
+        dists.append(np.linalg.norm(q - p[:, :2], axis=1)[finite & above])
+        ax.set_title(f"camera {k + 1}", fontsize=8)
+        lo, hi = np.nanmin(p[:, :2], axis=0), np.nanmax(p[:, :2], axis=0)
+        pad = 0.12 * (hi - lo).max()
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(hi[1] + pad, lo[1] - pad)
+    d = np.concatenate(dists)
+    m = {"mean_reprojection_px": float(np.mean(d)) if len(d) else float("nan"),
+         "n_reconstructed": float(finite.sum()), "err_reported": err, "nearest_rule": float(nearest),
+         "detections_at_thres": float(sum(int(np.sum(p[:, 2] == THRES)) for p in pts))}
+    for k, rule in enumerate(RULES):
+        m[f"gap_{k}"] = gaps[rule]
+    if P_true is not None:
+        with np.errstate(invalid="ignore"):
+            m["mean_error_3d"] = float(np.mean(np.linalg.norm(P[finite] - P_true[finite], axis=1))) if finite.any() \
+                else float("nan")
+    axes[0].set_xlabel("detections: filled above Thres, square at Thres, hollow below;\nx: your P reprojected; "
+                       "+: the true keypoints", fontsize=7)
+    rule = (f"your P is nearest to a triangulation of the detections with {RULES[nearest]}" if nearest >= 0
+            else "the three rules give the same points here")
+    alt = (f"The three views of time step {frame.time} with the 12 detections of each (Thres = {THRES:g}; "
+           f"{int(m['detections_at_thres'])} detections have exactly that confidence) and your {int(finite.sum())} "
+           f"reconstructed keypoints reprojected: mean distance {fmt(m['mean_reprojection_px'], 'px')} to the "
+           f"detections above Thres"
+           + (f"; mean 3D distance to the true keypoints {fmt(m['mean_error_3d'])}" if "mean_error_3d" in m else "")
+           + f". Of three rules, {rule}. Your err: {fmt(err)}.")
+    return to_picture("Q6", "MultiviewReconstruction: your keypoints in the three views", fig, alt, m)

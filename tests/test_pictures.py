@@ -1,0 +1,381 @@
+"""The feedback figures (starter.checks.pictures): each catalogue mistake of Q2 to Q6 is visible in
+what is drawn, measured on the figure's own data (its ``measures`` and the matplotlib artists), not
+on pixels.  Programs come from the corpus (tests/corpus/variants.py) over the reference solutions,
+run here in the test process on the public default data.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from starter.checks import pictures
+import corpus
+from corpus import variants as V
+
+slow = pytest.mark.slow
+
+
+HOMEWORK = ("eightpoint", "essentialMatrix", "triangulate", "findM2", "epipolarCorrespondence", "compute3D_pts",
+            "rodriguesResidual", "bundleAdjustment", "MultiviewReconstruction")
+
+
+def program(source: str | None = None) -> dict:
+    """The functions of the answer key's notebooks with one corpus cell (tests/corpus/variants.py) put in:
+    a ``WRAP_*`` cell after the cell of the function it wraps, any other in place of its function's
+    cell; executed as the grader keeps a submission's statements (corpus.program_namespace)."""
+    if source is None:
+        return corpus.program_namespace("key_full_marks", HOMEWORK)
+    name = [f for f in re.findall(r"^def (\w+)\(", source, re.MULTILINE) if f in HOMEWORK][-1]
+    if "_key_" in source:
+        mutate = lambda nbs, ctx: corpus.after_function(nbs, name, source)  # noqa: E731
+    else:
+        mutate = lambda nbs, ctx: corpus.replace_function(nbs, name, source)  # noqa: E731
+    return corpus.program_namespace(f"picture_{name}", HOMEWORK, corpus.Case(mutate))
+
+
+def picture(question: str, source: str | None = None):
+    ns = program(source)
+    return pictures.draw(question, pictures.public_outputs(question, ns))
+
+
+def numbers_in(text: str) -> list[float]:
+    return [float(m) for m in re.findall(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?", text)]
+
+
+def states(alt: str, value: float) -> bool:
+    """The alt text states ``value`` to its 3 significant digits."""
+    return any(np.isclose(v, value, rtol=6e-3, atol=1e-12) for v in numbers_in(alt))
+
+
+# ----------------------------------------------------------------------------- the API
+
+def test_questions_and_functions():
+    assert pictures.QUESTIONS == ("Q2", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6")
+    assert set(pictures.FUNCTIONS) == set(pictures.QUESTIONS)
+    assert pictures.FUNCTIONS["Q2"] == ("eightpoint",)
+
+
+@pytest.mark.parametrize("outputs, said", [
+    ({}, "missing 'F'"),
+    ({"F": np.zeros((2, 3))}, "'F'"),
+    ({"F": "abc"}, "'F'"),
+    ("not a mapping", "mapping"),
+])
+def test_draw_names_what_is_wrong(outputs, said):
+    with pytest.raises(ValueError, match=said):
+        pictures.draw("Q2", outputs)
+
+
+def test_unknown_question():
+    with pytest.raises(ValueError, match="question"):
+        pictures.draw("Q9", {})
+
+
+def test_a_failing_function_is_said_clearly():
+    def eightpoint(pts1, pts2, M):
+        raise ZeroDivisionError("boom")
+
+    with pytest.raises(pictures.PictureRunError, match="eightpoint raised ZeroDivisionError"):
+        pictures.public_outputs("Q2", {"eightpoint": eightpoint})
+    with pytest.raises(ValueError, match="needs eightpoint"):
+        pictures.public_outputs("Q2", {})
+
+
+@slow
+def test_outputs_are_plain_float_arrays_through_the_wire():
+    from core import wire
+
+    out = pictures.public_outputs("Q2", program())
+    assert all(isinstance(v, np.ndarray) and v.dtype == np.float64 for v in out.values())
+    back = wire.loads(wire.dumps(out))
+    assert set(back) == set(out) and all(np.array_equal(back[k], out[k]) for k in out)
+
+
+def test_show_never_raises(capsys):
+    def eightpoint(pts1, pts2, M):
+        return None
+
+    assert pictures.show("Q2", {"eightpoint": eightpoint}) is None
+    assert "figure not drawn" in capsys.readouterr().out
+
+
+# ----------------------------------------------------------------------------- Q2
+
+
+
+@slow
+def test_q2_right_lines_pass_through_the_true_matches():
+    p = picture("Q2")
+    m = p.measures
+    assert m["mean_distance_px"] < 1.0 and m["max_distance_px"] < 1.0
+    assert m["true_F_mean_distance_px"] < 1e-6
+    assert m["s3_over_s2"] < 1e-9
+    assert m["uint16_F_change"] < 1e-9
+    assert p.png.startswith(b"\x89PNG")
+    assert states(p.alt, m["mean_distance_px"]) and "8 epipolar lines" in p.alt
+
+
+@slow
+@pytest.mark.parametrize("source, key, low", [
+    (V.EIGHTPOINT_TRANSPOSED, "mean_distance_px", 2.0),
+    (V.EIGHTPOINT_NOT_UNSCALED, "mean_distance_px", 100.0),
+    # refineF polishes the transposed F; switched off, its lines miss again
+    (V.EIGHTPOINT_TRANSPOSED_REFINED, "refineF_off_mean_distance_px", 2.0),
+])
+def test_q2_wrong_lines_miss_the_matches(source, key, low):
+    p = picture("Q2", source)
+    assert p.measures[key] > low
+    assert states(p.alt, p.measures[key])
+
+
+@slow
+def test_q2_transposed_misses_where_drawn():
+    """The artists' own data: each drawn line of a transposed F misses its dot by up to several pixels."""
+    from starter.checks.pictures.drawing import line_distances
+    from starter.checks.pictures.public import temple
+
+    out = pictures.public_outputs("Q2", program(V.EIGHTPOINT_TRANSPOSED))
+    s = temple().scene
+    p = pictures.draw("Q2", out)
+    d = line_distances(np.column_stack([s.pts1_true, np.ones(len(s.pts1_true))]) @ out["F"].T, s.pts2_true)
+    assert np.max(d) > 5 > p.measures["mean_distance_px"] > 2
+    right = line_distances(np.column_stack([s.pts1_true, np.ones(len(s.pts1_true))]) @ s.F_true.T, s.pts2_true)
+    assert np.max(right) < 1e-6
+
+
+@slow
+def test_q2_rank3_is_measured():
+    p = picture("Q2", V.EIGHTPOINT_RANK3)
+    assert p.measures["s3_over_s2"] > 1e-3
+    assert "full rank" in p.alt and states(p.alt, p.measures["s3_over_s2"])
+
+
+@slow
+def test_q2_uint16_changes_F():
+    p = picture("Q2", V.EIGHTPOINT_UINT16)
+    assert p.measures["uint16_F_change"] > 0.1
+    assert states(p.alt, p.measures["uint16_F_change"])
+
+
+# ----------------------------------------------------------------------------- Q3.2
+
+@slow
+def test_q32_right_points_reproject_onto_the_matches():
+    p = picture("Q3.2")
+    m = p.measures
+    assert m["mean_reprojection_px_1"] < 1 and m["mean_reprojection_px_2"] < 1
+    assert m["share_in_front"] == 1.0
+    assert np.isclose(m["err_reported"], m["sum_of_squares"], rtol=1e-6)
+    assert states(p.alt, m["err_reported"]) and states(p.alt, m["mean_reprojection_px_2"])
+
+
+@slow
+@pytest.mark.parametrize("source", [V.TRIANGULATE_W_NOT_DIVIDED, V.TRIANGULATE_POINTS_MIRRORED])
+def test_q32_wrong_points_reproject_far(source):
+    m = picture("Q3.2", source).measures
+    assert m["mean_reprojection_px_2"] > 100
+    assert m["share_in_front"] < 0.6
+
+
+@slow
+def test_q32_mean_error_differs_from_the_sum_drawn():
+    p = picture("Q3.2", V.TRIANGULATE_MEAN_ERROR)
+    m = p.measures
+    assert m["mean_reprojection_px_2"] < 1
+    assert m["err_reported"] < 0.05 * m["sum_of_squares"]
+    assert states(p.alt, m["err_reported"]) and states(p.alt, m["sum_of_squares"])
+
+
+# ----------------------------------------------------------------------------- Q3.3
+
+@slow
+def test_q33_right_camera_is_the_one_with_points_in_front():
+    p = picture("Q3.3")
+    m = p.measures
+    assert m["chosen"] == m["right"] >= 0
+    assert m["chosen_share_in_front"] == 1.0
+    assert f"candidate {int(m['right']) + 1}" in p.alt
+
+
+@slow
+@pytest.mark.parametrize("source", [V.FINDM2_CHEIRALITY_FLIPPED])
+def test_q33_wrong_camera_is_framed_with_its_points_behind(source):
+    p = picture("Q3.3", source)
+    m = p.measures
+    assert m["chosen"] >= 0 and m["chosen"] != m["right"]
+    assert m["chosen_share_in_front"] == 0.0 and m["right_share_in_front"] == 1.0
+    assert f"Yours is candidate {int(m['chosen']) + 1}" in p.alt
+
+
+@slow
+def test_q33_another_years_signature_is_called_its_way():
+    m = picture("Q3.3", V.FINDM2_INTRINSICS).measures
+    assert m["chosen"] == m["right"]
+
+
+# ----------------------------------------------------------------------------- Q4.1, Q4.2
+
+@slow
+def test_q41_right_matches_land_on_the_true_ones():
+    p = picture("Q4.1")
+    assert p.measures["share_within_tol"] >= 0.8 and p.measures["median_distance_px"] < 1
+    assert states(p.alt, p.measures["median_distance_px"])
+
+
+@slow
+def test_q41_and_q42_xy_swapped():
+    ns = program(V.WRAP_XY_SWAPPED)
+    m = pictures.draw("Q4.1", pictures.public_outputs("Q4.1", ns)).measures
+    assert m["share_within_tol"] == 0.0 and m["median_distance_px"] > 50
+    m = pictures.draw("Q4.2", pictures.public_outputs("Q4.2", ns)).measures
+    assert m["share_near"] < 0.1 and m["median_error"] > 0.3 * m["temple_size"]
+
+
+@slow
+@pytest.mark.parametrize("source", [None, V.COMPUTE3D_FIVE_ARGUMENTS])
+def test_q42_right_temple_lies_on_the_true_one(source):
+    p = picture("Q4.2", source)
+    assert p.measures["share_near"] > 0.8 and p.measures["median_error"] < 0.05 * p.measures["temple_size"]
+    assert f"{p.measures['share_near']:.0%}" in p.alt
+
+
+# ----------------------------------------------------------------------------- Q5
+
+@slow
+def test_q5_right_bundle_adjustment_goes_down_and_is_recorded():
+    p = picture("Q5")
+    m = p.measures
+    assert m["end_error"] < 0.01 * m["start_error"]
+    assert m["n_calls"] >= 2 and np.isclose(m["history_first"], m["start_error"], rtol=1e-6)
+    assert m["history_min"] <= m["end_error"] * (1 + 1e-6)
+    assert m["residual_layout_gap"] < 1e-9
+    assert states(p.alt, m["start_error"]) and states(p.alt, m["end_error"])
+
+
+@slow
+def test_q5_returning_the_start_shows_the_drop_not_kept():
+    p = picture("Q5", V.BA_RETURNS_START)
+    m = p.measures
+    assert m["end_error"] == pytest.approx(m["start_error"], rel=1e-9)
+    assert m["history_min"] < 0.01 * m["start_error"]       # the optimiser got there; the result did not
+    assert "not lower" in p.alt
+
+
+@slow
+def test_q5_interleaved_residuals_leave_the_handout_layout():
+    p = picture("Q5", V.WRAP_RESIDUAL_INTERLEAVED)
+    assert p.measures["residual_layout_gap"] > 0.5
+    assert states(p.alt, p.measures["residual_layout_gap"])
+
+
+@slow
+@pytest.mark.parametrize("source", [V.BA_MINIMIZE, V.BA_LEAST_SQUARES])
+def test_q5_other_optimisers_are_recorded(source):
+    import scipy.optimize as so
+
+    ns = program(source)
+    m = pictures.draw("Q5", pictures.public_outputs("Q5", ns)).measures
+    assert m["n_calls"] > 10 and m["end_error"] < 0.01 * m["start_error"]
+    # everything the recording replaced is back
+    assert so.least_squares.__name__ == "least_squares" and so.minimize.__name__ == "minimize"
+    assert not hasattr(ns["rodriguesResidual"], "__wrapped__")
+
+
+# ----------------------------------------------------------------------------- Q6
+
+WRAP_THRESHOLD_IGNORED = '''\
+_key_MultiviewReconstruction = MultiviewReconstruction
+
+
+def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
+    """Every detection used, whatever its confidence."""
+    return _key_MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, -1.0)
+'''
+WRAP_THRESHOLD_TOO_STRICT = WRAP_THRESHOLD_IGNORED.replace("-1.0", "Thres + 150").replace(
+    "Every detection used, whatever its confidence", "Detections just above Thres left out")
+
+
+@slow
+def test_q6_right_keypoints_follow_the_handouts_rule():
+    p = picture("Q6")
+    m = p.measures
+    assert m["nearest_rule"] == 0 and m["detections_at_thres"] >= 1
+    assert m["mean_reprojection_px"] < 5 and m["mean_error_3d"] < 0.05
+    assert "confidence > Thres" in p.alt and states(p.alt, m["mean_reprojection_px"])
+
+
+@slow
+@pytest.mark.parametrize("source, rule", [(V.WRAP_THRESHOLD_INCLUSIVE, 1), (WRAP_THRESHOLD_IGNORED, 2)])
+def test_q6_threshold_mistakes_follow_another_rule(source, rule):
+    from starter.checks.pictures.q6_multiview import RULES
+
+    p = picture("Q6", source)
+    assert p.measures["nearest_rule"] == rule
+    assert RULES[rule] in p.alt
+
+
+@slow
+def test_q6_too_strict_leaves_keypoints_out():
+    right, strict = picture("Q6").measures, picture("Q6", WRAP_THRESHOLD_TOO_STRICT).measures
+    assert strict["n_reconstructed"] < right["n_reconstructed"]
+    assert strict["gap_0"] > 1.0 > right["gap_0"]
+
+
+@slow
+def test_q6_mean_error_is_stated_as_returned():
+    right, mean = picture("Q6").measures, picture("Q6", V.WRAP_MULTIVIEW_MEAN_ERR).measures
+    assert mean["err_reported"] < 0.2 * right["err_reported"]
+    assert mean["mean_reprojection_px"] == pytest.approx(right["mean_reprojection_px"])
+
+
+# ----------------------------------------------------------------------------- in a notebook
+
+@slow
+def test_a_check_shows_its_figure_in_a_notebook(monkeypatch, capsys):
+    """In a notebook (IPython faked here) a check displays the PNG with its alt text; a figure that
+    cannot be drawn says why and the check's report is still returned."""
+    import IPython.display
+
+    from starter.checks import check_triangulate
+    from starter.checks.pictures import display
+
+    shown = []
+    monkeypatch.setattr(display, "in_notebook", lambda: True)
+    monkeypatch.setattr(IPython.display, "display", lambda bundle, raw=False: shown.append(bundle))
+    report = check_triangulate(program()["triangulate"])
+    assert report.passed and len(shown) == 1
+    assert shown[0]["image/png"].startswith(b"\x89PNG") and "alt='" in shown[0]["text/html"]
+
+    def triangulate(C1, pts1, C2, pts2):
+        raise RuntimeError("no")
+
+    report = check_triangulate(triangulate)
+    assert not report.passed and len(shown) == 1
+    assert "figure not drawn: PictureRunError: triangulate raised RuntimeError" in capsys.readouterr().out
+
+
+@slow
+def test_default_data_only_where_truth_is_needed(tmp_path):
+    """Data that is not the default (an instructor's official data) draws Q2 against its own matches
+    and says Q3.2 needs the default data's cameras."""
+    import shutil
+
+    from starter.checks.pictures.public import NO_TRUTH, temple
+
+    root = tmp_path / "data"
+    shutil.copytree(temple(truth=False).data.folder, root / "temple")
+    z = dict(np.load(root / "temple" / "some_corresp.npz"))
+    z["pts1"] = z["pts1"].copy()
+    z["pts1"][0, 0] += 1
+    np.savez(root / "temple" / "some_corresp.npz", **z)
+
+    def eightpoint(pts1, pts2, M):
+        return np.eye(3)
+
+    p = pictures.draw("Q2", {"F": np.eye(3)}, root=root)
+    assert NO_TRUTH in p.alt and "true_F_mean_distance_px" not in p.measures
+    with pytest.raises(ValueError, match="Q3.2's figure needs the true cameras"):
+        pictures.public_outputs("Q3.2", {"triangulate": eightpoint}, root=root)
