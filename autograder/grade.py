@@ -224,8 +224,8 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
         session's budget shrinks to end ``_DEADLINE_RESERVE`` seconds before it, so that the checks
         that ran are reported rather than lost to the platform's kill.
     pictures : optional dict: when given, the unscored picture step runs after the checks
-        (``autograder.pictures``) and this dict receives its raw record (question -> outputs as
-        wire data, or the sentence why not), for ``autograder.pictures.decode``.
+        (``autograder.pictures``) and this dict receives its raw record (question -> the picture
+        the worker drew, or the sentence why not), for ``autograder.pictures.figures_of``.
 
     Returns
     -------

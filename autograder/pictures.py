@@ -1,19 +1,23 @@
 """Pictures of what a student's code did on the PUBLIC data: run in the sandbox, drawn by the grader.
 
-Never scored, never on hidden scenes.  Three steps, each in the process allowed to do it:
+Never scored, never on hidden scenes.  The steps, each in the process allowed to do it:
 
 1. ``run_public(student, question)``, in the grading worker's pytest session (the unscored step
    ``autograder/hidden/test_pictures.py``, after every scored check):
    ``starter.checks.pictures.public_outputs`` runs with each student function replaced by a call
-   through the sandbox session (``Student.call``), so student code runs only in the sandboxed
-   child and what it returns arrives as ``core.wire`` data, decoded with the session's size
-   limits.  The question's calls share ``SECONDS`` (times the config's ``time_scale``).  The
-   answer is plain JSON for the worker's results file: ``{"outputs": <wire>}`` or
-   ``{"error": "figure not drawn: ..."}``; nothing raised there reaches the grade.
-2. ``decode(raw)``, in the grader: that record checked again (known questions, short names,
-   float arrays, bounded sizes: ``LIMITS``) -> question -> outputs, or the sentence why not.
-3. ``draw_all(decoded)``, in the grader: ``starter.checks.pictures.draw`` (trusted, calls no
-   student code) -> question -> ``Picture``, or "figure not drawn: ...".
+   through the sandbox session (``Student.outcome``/``map``), so student code runs only in the
+   sandboxed child and what it returns arrives as ``core.wire`` data, decoded with the session's
+   size limits, then checked (``_checked``: str names, float arrays, ``LIMITS``).  The
+   question's calls share ``SECONDS`` (times the config's ``time_scale``).  The answer is plain
+   JSON: ``{"outputs": <wire>}`` or ``{"error": "figure not drawn: ..."}``; nothing raised there
+   reaches the grade.
+2. ``drawn(question, record)``, in the same worker (the grader's own process, which never runs
+   student code; a batch's ``--jobs`` workers draw in parallel): the outputs decoded again and
+   drawn (``starter.checks.pictures.draw``, trusted, calls no student code) -> ``{"picture":
+   {title, alt, png (base64), measures}}`` or ``{"error": ...}``, for the worker's results file.
+3. ``figures_of(raw)``, in the grader: each record checked again (known questions, a PNG of at
+   most ``MAX_PNG`` bytes, bounded texts, finite measures; ``outputs`` still to draw are drawn
+   here) -> question -> ``Picture``, or the sentence "figure not drawn: ...".
 
 Every sentence may quote the student (an exception's message): its writers escape it
 (``core.untrusted``).
@@ -30,8 +34,8 @@ import numpy as np
 
 from core import wire
 
-__all__ = ["LIMITS", "NOT_DRAWN", "SECONDS", "PictureFailed", "contract", "decode", "draw_all", "figures_of", "finite_measures",
-           "run_public"]
+__all__ = ["LIMITS", "MAX_PNG", "NOT_DRAWN", "SECONDS", "PictureFailed", "contract", "decode", "draw_all", "drawn",
+           "figures_of", "finite_measures", "run_public"]
 
 NOT_DRAWN = "figure not drawn: "
 SECONDS = 10.0          # a question's calls together, in the checks' designed seconds (times time_scale)
@@ -41,6 +45,8 @@ _MAX_ELEMENTS = 1_000_000   # numbers in one array (8 MB as float64)
 _MAX_TOTAL = 4_000_000      # numbers in one question's outputs
 LIMITS = wire.Limits(max_array_bytes=_MAX_ELEMENTS * 16, max_total_bytes=_MAX_TOTAL * 16, max_string=_MAX_NAME,
                      max_items=_MAX_NAMES * 4, max_depth=4, max_ndim=4)
+MAX_PNG = 2_000_000         # bytes of one drawn picture
+_MAX_TEXT = 4000            # characters of a title or an alt text
 _draw_lock = threading.Lock()   # matplotlib's state is the process's: a batch's threads draw one at a time
 
 
@@ -58,7 +64,11 @@ def contract():
 
 class _Proxies(Mapping):
     """name -> a callable that calls the student's ``name`` in the sandbox within what is left of
-    the question's ``seconds``; the first failure is kept (a picture needs every call it makes)."""
+    the question's ``seconds``; the first failure is kept (a picture needs every call it makes).
+
+    Each callable also has ``map(inputs, args=())``: the values of ``fn(*args, *a)`` for each
+    tuple ``a`` of ``inputs``, in one sandbox request, so that common arguments (two images)
+    cross the wire once rather than once per call (a pictures module uses it when it is there)."""
 
     def __init__(self, student, names, seconds: float):
         self.student, self.names = student, tuple(names)
@@ -86,7 +96,27 @@ class _Proxies(Mapping):
                 raise PictureFailed(self.failure)
             return outcome.value
 
+        def each(inputs, args=()):
+            """``[call(*args, *a) for a in inputs]`` in one request: ``args`` (the images) cross once."""
+            if self.failure is not None:
+                raise PictureFailed(self.failure)
+            scale = float(getattr(self.student, "time_scale", 1.0) or 1.0)
+            left = self.deadline - time.monotonic()
+            if left <= 0.05 * scale:
+                self.failure = f"the picture's calls took more than {self.seconds:g} s"
+                raise PictureFailed(self.failure)
+            outcomes = self.student.map(name, [(tuple(a), {}) for a in inputs], args=tuple(args), seconds=left,
+                                        budget=left)
+            for outcome in outcomes:
+                if not outcome.ok:
+                    from .hidden.feedback import failure
+
+                    self.failure = failure(name, outcome)
+                    raise PictureFailed(self.failure)
+            return [o.value for o in outcomes]
+
         call.__name__ = call.__qualname__ = str(name)
+        call.map = each
         return call
 
     def __iter__(self):
@@ -150,9 +180,9 @@ def _checked(outputs) -> dict[str, np.ndarray]:
     return out
 
 
-def decode(raw, questions=None) -> dict[str, dict | str]:
-    """The worker's ``pictures`` record, checked: question -> outputs (str -> float64 array) or
-    the sentence why there is no figure.  Unknown questions and malformed entries are dropped or
+def decode(raw, questions=None) -> dict:
+    """The worker's ``pictures`` record, checked: question -> outputs (str -> float64 array) still
+    to draw, a ``Picture`` drawn by the worker, or the sentence why there is no figure.  Unknown questions and malformed entries are dropped or
     turned into a sentence; never raises."""
     if questions is None:
         try:
@@ -170,6 +200,9 @@ def decode(raw, questions=None) -> dict[str, dict | str]:
             text = entry["error"][:2000]
             out[q] = text if text.startswith(NOT_DRAWN) else NOT_DRAWN + text
             continue
+        if "picture" in entry:
+            out[q] = _picture_of(q, entry["picture"])
+            continue
         try:
             out[q] = _checked(wire.decode(entry.get("outputs"), LIMITS))
         except (wire.WireError, ValueError, TypeError) as exc:
@@ -177,12 +210,44 @@ def decode(raw, questions=None) -> dict[str, dict | str]:
     return out
 
 
+def _picture_of(question: str, data):
+    """The ``Picture`` a worker drew (``drawn``), checked; the sentence why not when it is malformed."""
+    import base64
+    import binascii
+
+    try:
+        png = base64.b64decode(data["png"], validate=True) if len(data["png"]) <= MAX_PNG * 4 // 3 + 4 else b""
+        title, alt = data["title"], data["alt"]
+        measures = {str(k)[:_MAX_NAME]: float(v) for k, v in dict(data.get("measures") or {}).items()}
+        if not (png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) <= MAX_PNG and isinstance(title, str)
+                and isinstance(alt, str) and alt.strip() and len(measures) <= _MAX_NAMES):
+            raise ValueError("not a picture")
+    except (KeyError, TypeError, ValueError, AttributeError, binascii.Error):
+        return f"{NOT_DRAWN}the picture could not be read"
+    return contract().Picture(question, title[:_MAX_TEXT], png, alt[:_MAX_TEXT], measures)
+
+
+def drawn(question: str, record: dict, root=None) -> dict:
+    """``record`` (``run_public``'s) with its outputs drawn: ``{"picture": {title, alt, png
+    (base64), measures}}`` or ``{"error": ...}`` (the record's own, or why it could not be drawn)."""
+    import base64
+
+    figure = draw_all(decode({question: record}, (question,)), root=root).get(question)
+    if figure is None:
+        return {}
+    if isinstance(figure, str):
+        return {"error": figure}
+    return {"picture": {"title": str(figure.title), "alt": str(figure.alt), "measures": finite_measures(figure),
+                        "png": base64.b64encode(figure.png).decode("ascii")}}
+
+
 def draw_all(decoded: Mapping, root=None) -> dict:
-    """question -> ``Picture`` (``starter.checks.pictures.draw`` of its outputs) or the sentence
-    "figure not drawn: ..." (the step's own, or the drawing's failure, named as the grader's)."""
+    """question -> ``Picture`` (``starter.checks.pictures.draw`` of its outputs; one drawn already
+    stays) or the sentence "figure not drawn: ..." (the step's own, or the drawing's failure,
+    named as the grader's)."""
     out: dict = {}
     for q, outputs in decoded.items():
-        if isinstance(outputs, str):
+        if not isinstance(outputs, Mapping):  # a sentence, or a Picture drawn already
             out[q] = outputs
             continue
         try:

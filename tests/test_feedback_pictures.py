@@ -79,6 +79,18 @@ def test_a_drawing_that_breaks_is_the_graders_note(monkeypatch):
     assert step.figures_of(raw) == {"Q2": "figure not drawn: the grader could not draw it (RuntimeError)"}
 
 
+def test_the_worker_draws_and_the_grader_checks_the_drawing_again():
+    raw = {"Q2": step.drawn("Q2", run({"eightpoint": good_eightpoint})),
+           "Q3.2": step.drawn("Q3.2", run({"eightpoint": hostile_eightpoint}))}
+    assert set(raw["Q2"]) == {"picture"} and raw["Q3.2"]["error"].startswith("figure not drawn: ")
+    figures = step.figures_of(json.loads(json.dumps(raw)))
+    assert figures["Q2"].png.startswith(b"\x89PNG") and figures["Q2"].alt and figures["Q2"].question == "Q2"
+    good = raw["Q2"]["picture"]
+    for bad in ({**good, "png": "not base64!"}, {**good, "png": "aGVsbG8="}, {**good, "alt": ""},
+                {**good, "png": "A" * (step.MAX_PNG * 2)}, {"png": good["png"]}):
+        assert step.figures_of({"Q2": {"picture": bad}}) == {"Q2": "figure not drawn: the picture could not be read"}
+
+
 @pytest.mark.parametrize("entry", [
     {"outputs": {"__dict__": {"F": wire.encode(np.ones((2000, 1000)))}}},     # too many numbers
     {"outputs": {"__dict__": {"F": wire.encode(np.ones(3, dtype=complex))}}},  # not real numbers

@@ -4,14 +4,15 @@ of their feedback (``autograder.pictures``).
 It runs only when the grader asks for pictures (``--pictures``), after every scored check (the
 plugin orders the ``picture`` items last), one test per question of
 ``starter.checks.pictures.QUESTIONS``.  The student's functions run in the sandbox session of the
-checks, within ``autograder.pictures.SECONDS`` per question; whatever they do, the test passes and
-records either the outputs or the sentence "figure not drawn: ...".  It has no ``points`` marker:
+checks, within ``autograder.pictures.SECONDS`` per question; what they return is drawn here
+(``autograder.pictures.drawn``: this process never runs student code).  Whatever they do, the
+test passes and records either the picture or the sentence "figure not drawn: ...".  It has no ``points`` marker:
 it never counts in the result.
 """
 
 import pytest
 
-from autograder.pictures import contract, run_public
+from autograder.pictures import contract, drawn, run_public
 
 
 def _questions() -> tuple[str, ...]:
@@ -30,4 +31,5 @@ def test_picture(question, request):
     student = request.getfixturevalue("student")
     record = run_public(student, question)
     if record:  # {}: no picture of this question in the pictures module
-        config._hw4.setdefault("pictures", {})[question] = record
+        # Drawn here, in this worker (the grader's own process; student code ran in the sandbox).
+        config._hw4.setdefault("pictures", {})[question] = drawn(question, record)
