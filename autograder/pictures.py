@@ -72,48 +72,43 @@ class _Proxies(Mapping):
 
     def __init__(self, student, names, seconds: float):
         self.student, self.names = student, tuple(names)
-        self.deadline = time.monotonic() + seconds * float(getattr(student, "time_scale", 1.0) or 1.0)
+        self.scale = float(getattr(student, "time_scale", 1.0) or 1.0)
+        self.deadline = time.monotonic() + seconds * self.scale
         self.seconds = seconds
         self.failure: str | None = None
+
+    def _seconds_left(self) -> float:
+        """Wall-clock seconds left for the question's calls; PictureFailed once there are none."""
+        if self.failure is not None:
+            raise PictureFailed(self.failure)
+        left = self.deadline - time.monotonic()
+        if left <= 0.05 * self.scale:
+            self.failure = f"the picture's calls took more than {self.seconds:g} s"
+            raise PictureFailed(self.failure)
+        return left
+
+    def _value(self, name: str, outcome):
+        if not outcome.ok:
+            from .hidden.feedback import failure
+
+            self.failure = failure(name, outcome)
+            raise PictureFailed(self.failure)
+        return outcome.value
 
     def __getitem__(self, name):
         if name not in self.names:
             raise KeyError(name)
 
         def call(*args, **kwargs):
-            if self.failure is not None:
-                raise PictureFailed(self.failure)
-            scale = float(getattr(self.student, "time_scale", 1.0) or 1.0)
-            left = (self.deadline - time.monotonic()) / scale
-            if left <= 0.05:
-                self.failure = f"the picture's calls took more than {self.seconds:g} s"
-                raise PictureFailed(self.failure)
-            outcome = self.student.outcome(name, *args, seconds=left, **kwargs)
-            if not outcome.ok:
-                from .hidden.feedback import failure
-
-                self.failure = failure(name, outcome)
-                raise PictureFailed(self.failure)
-            return outcome.value
+            left = self._seconds_left() / self.scale   # Student.outcome multiplies by time_scale
+            return self._value(name, self.student.outcome(name, *args, seconds=left, **kwargs))
 
         def each(inputs, args=()):
             """``[call(*args, *a) for a in inputs]`` in one request: ``args`` (the images) cross once."""
-            if self.failure is not None:
-                raise PictureFailed(self.failure)
-            scale = float(getattr(self.student, "time_scale", 1.0) or 1.0)
-            left = self.deadline - time.monotonic()
-            if left <= 0.05 * scale:
-                self.failure = f"the picture's calls took more than {self.seconds:g} s"
-                raise PictureFailed(self.failure)
+            left = self._seconds_left()                # Student.map takes seconds as they are
             outcomes = self.student.map(name, [(tuple(a), {}) for a in inputs], args=tuple(args), seconds=left,
                                         budget=left)
-            for outcome in outcomes:
-                if not outcome.ok:
-                    from .hidden.feedback import failure
-
-                    self.failure = failure(name, outcome)
-                    raise PictureFailed(self.failure)
-            return [o.value for o in outcomes]
+            return [self._value(name, o) for o in outcomes]
 
         call.__name__ = call.__qualname__ = str(name)
         call.map = each
@@ -130,9 +125,10 @@ def run_public(student, question: str, *, seconds: float = SECONDS, root=None) -
     """The picture step of one question, as JSON-able data for the worker's results file.
 
     ``student``: the plugin's ``Student`` (or ``LocalStudent``): anything with ``outcome(name,
-    *args, seconds=...)``.  Returns ``{"outputs": wire data}`` or ``{"error": "figure not drawn:
-    ..."}``; never raises for what the student's code does (a bug of the picture code is named
-    as the grader's, its type only).
+    *args, seconds=...)`` and ``map(name, inputs, args=..., seconds=..., budget=...)``.  Returns
+    ``{"outputs": wire data}``, ``{"error": "figure not drawn: ..."}``, or ``{}`` when the
+    pictures module has no picture of ``question`` (NotImplementedError); never raises for what
+    the student's code does (a bug of the picture code is named as the grader's, its type only).
     """
     pictures = contract()
     proxies = _Proxies(student, pictures.FUNCTIONS.get(question, ()), seconds)

@@ -6,7 +6,8 @@ its picture ("figure not drawn: ..."), never a point.
    the same session.
 2. A whole batch (grading worker, sandbox, the real ``starter.checks.pictures``): the answer key
    with an eightpoint that hangs on the public data only, graded with the default data left out
-   of the hidden checks, keeps full marks; its feedback.html says why Q2 has no figure.
+   of the hidden checks, keeps full marks; its feedback.html says why Q2 has no figure, and every
+   other question's picture is drawn.
 """
 
 from __future__ import annotations
@@ -94,3 +95,5 @@ def test_a_hang_on_the_public_data_costs_the_picture_never_the_grade(tmp_path):
     assert "figure not drawn: eightpoint" in page
     index = json.loads((record.folder / "figures" / "figures.json").read_text())
     assert index["Q2"]["error"].startswith("figure not drawn: eightpoint")
+    drawn = {q for q, v in index.items() if "file" in v}
+    assert drawn == set(index) - {"Q2"} and "Q4.1" in drawn, index  # Q4.1: its matcher called through map()
