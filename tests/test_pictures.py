@@ -207,7 +207,7 @@ def test_q33_wrong_camera_is_framed_with_its_points_behind(source):
     m = p.measures
     assert m["chosen"] >= 0 and m["chosen"] != m["right"]
     assert m["chosen_share_in_front"] == 0.0 and m["right_share_in_front"] == 1.0
-    assert f"Yours is candidate {int(m['chosen']) + 1}" in p.alt
+    assert f"yours is candidate {int(m['chosen']) + 1} (framed)" in p.alt
 
 
 @slow
@@ -376,6 +376,152 @@ def test_default_data_only_where_truth_is_needed(tmp_path):
         return np.eye(3)
 
     p = pictures.draw("Q2", {"F": np.eye(3)}, root=root)
-    assert NO_TRUTH in p.alt and "true_F_mean_distance_px" not in p.measures
-    with pytest.raises(ValueError, match="Q3.2's figure needs the true cameras"):
+    assert NO_TRUTH[3:] in p.alt and "true_F_mean_distance_px" not in p.measures
+    with pytest.raises(ValueError, match="Q3.2's figure needs the ground truth"):
         pictures.public_outputs("Q3.2", {"triangulate": eightpoint}, root=root)
+
+
+# ----------------------------------------------------------------------------- mistakes without a corpus program
+
+_SWAP = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+@slow
+@pytest.mark.parametrize("mistake", ["xy_swapped", "f_unscaled_wrong_way"])
+def test_q2_other_catalogue_mistakes_miss_the_matches(mistake):
+    """The catalogue's repairs (judging.mistakes._f_repairs) undone: the F each mistake makes."""
+    key = program()["eightpoint"]
+    M = 640.0
+    T = np.diag([1 / M, 1 / M, 1.0])
+    spoil = {"xy_swapped": lambda F: _SWAP @ F @ _SWAP,
+             "f_unscaled_wrong_way": lambda F: np.linalg.matrix_power(np.linalg.inv(T), 2) @ F
+             @ np.linalg.matrix_power(np.linalg.inv(T), 2)}
+
+    def eightpoint(pts1, pts2, M):
+        return spoil[mistake](key(pts1, pts2, M))
+
+    p = pictures.draw("Q2", pictures.public_outputs("Q2", {"eightpoint": eightpoint}))
+    assert p.measures["mean_distance_px"] > 10
+
+
+@slow
+def test_q2_not_unscaled_draws_no_line_in_the_image():
+    p = picture("Q2", V.EIGHTPOINT_NOT_UNSCALED)
+    assert p.measures["lines_in_image"] < p.measures["n_lines"]
+    assert f"{int(p.measures['lines_in_image'])} of your 8 lines cross image 2" in p.alt
+
+
+@slow
+def test_q5_scale_collapse_is_measured():
+    """A bundle adjustment whose points and t shrink together (the catalogue's BA scale collapse)."""
+    key = program()["bundleAdjustment"]
+
+    def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
+        M2, w, o1, o2 = key(K1, M1, p1, K2, M2_init, p2, w_init)
+        M2 = np.hstack([M2[:, :3], 1e-3 * M2[:, 3:]])
+        return M2, 1e-3 * w, o1, o2
+
+    m = pictures.draw("Q5", pictures.public_outputs("Q5", {"bundleAdjustment": bundleAdjustment})).measures
+    assert m["t_ratio"] < 0.01 and m["end_error"] < 0.01 * m["start_error"]
+    assert "residual_layout_gap" not in m     # no rodriguesResidual given: no panel, no measure
+
+
+@slow
+def test_q5_x_packing_shows_in_the_residuals():
+    """rodriguesResidual reading each point of x as (z, y, x): its residuals leave the handout's layout."""
+    ns = program()
+    key = ns["rodriguesResidual"]
+    out = pictures.public_outputs("Q5", {"bundleAdjustment": ns["bundleAdjustment"], "rodriguesResidual": key})
+    assert pictures.draw("Q5", out).measures["residual_layout_gap"] < 1e-9
+
+    def packed_wrong(K1, M1, p1, K2, p2, x):
+        n = len(p1)
+        x = np.asarray(x, float)
+        w = x[:3 * n].reshape(n, 3)[:, ::-1].ravel()            # each point read as (z, y, x)
+        return key(K1, M1, p1, K2, p2, np.concatenate([w, x[3 * n:]]))
+
+    out = pictures.public_outputs("Q5", {"bundleAdjustment": ns["bundleAdjustment"], "rodriguesResidual": packed_wrong})
+    assert pictures.draw("Q5", out).measures["residual_layout_gap"] > 0.1
+
+
+@slow
+def test_q33_depth_in_camera_1_only_picks_the_twisted_pair():
+    """The catalogue's "depth tested in one camera only": on the default data it picks the right camera
+    (by chance, as the README says); on the twisted-pair row its choice has every point in front of
+    camera 1 and behind camera 2."""
+    ns = program()
+    essentialMatrix, triangulate = ns["essentialMatrix"], ns["triangulate"]
+    from starter import camera2
+
+    def findM2(F, pts1, pts2, K1, K2):
+        cands = camera2(essentialMatrix(F, K1, K2))
+        best = None
+        for i in range(4):
+            w, err = triangulate(K1 @ np.eye(3, 4), pts1, K2 @ cands[:, :, i], pts2)
+            if np.all(w[:, 2] > 0) and (best is None or err < best[0]):
+                best = (err, cands[:, :, i], K2 @ cands[:, :, i], w)
+        return best[1:]
+
+    p = pictures.draw("Q3.3", pictures.public_outputs("Q3.3", {"findM2": findM2}))
+    m = p.measures
+    assert m["chosen"] == m["right"]
+    assert m["twisted_chosen"] >= 0 and m["twisted_chosen"] != m["twisted_right"]
+    assert m["twisted_chosen_share_front_1_only"] == 1.0 and m["twisted_right_share_in_front"] == 1.0
+    assert "twisted-pair case" in p.alt
+    right = picture("Q3.3").measures
+    assert right["twisted_chosen"] == right["twisted_right"]
+
+
+# ----------------------------------------------------------------------------- what is drawn, read back
+
+def _captured(monkeypatch, module):
+    """The matplotlib figure ``module.draw`` renders, kept for reading its artists."""
+    figures = []
+    original = module.to_picture
+
+    def keep(question, title, fig, alt, measures):
+        figures.append(fig)
+        return original(question, title, fig, alt, measures)
+
+    monkeypatch.setattr(module, "to_picture", keep)
+    return figures
+
+
+def _dots_to_drawn_lines(fig) -> np.ndarray:
+    """Per drawn match of the first (large) panel, the distance in pixels to the line drawn for it."""
+    ax = fig.axes[0]
+    lines = [a for a in ax.lines if a.get_gid() == "student_line"]
+    (dots,) = [a for a in ax.lines if a.get_gid() == "match"]
+    xy = np.column_stack([dots.get_xdata(), dots.get_ydata()])
+    out = []
+    for (x, y), ln in zip(xy, lines):
+        (x0, x1), (y0, y1) = ln.get_xdata(), ln.get_ydata()
+        out.append(abs((x1 - x0) * (y0 - y) - (x0 - x) * (y1 - y0)) / np.hypot(x1 - x0, y1 - y0))
+    return np.array(out)
+
+
+@slow
+def test_q2_the_drawn_lines_pass_through_the_drawn_dots(monkeypatch):
+    from starter.checks.pictures import q2_eightpoint
+
+    figures = _captured(monkeypatch, q2_eightpoint)
+    right = picture("Q2")
+    d = _dots_to_drawn_lines(figures[-1])
+    assert len(d) == 8 and d.max() < 1.0
+    assert np.mean(d) == pytest.approx(right.measures["mean_distance_px"], rel=1e-6)
+    wrong = picture("Q2", V.EIGHTPOINT_TRANSPOSED)
+    d = _dots_to_drawn_lines(figures[-1])
+    assert d.max() > 5 and np.mean(d) > 2
+    assert np.mean(d) == pytest.approx(wrong.measures["mean_distance_px"], rel=1e-6)
+
+
+@slow
+def test_q41_the_drawn_crosses_are_the_matches(monkeypatch):
+    from starter.checks.pictures import q4_matches
+
+    figures = _captured(monkeypatch, q4_matches)
+    p = picture("Q4.1", V.WRAP_XY_SWAPPED)
+    ax = figures[-1].axes[1]
+    right = [a for a in ax.lines if a.get_gid() == "yours_right"][0]
+    wrong = [a for a in ax.lines if a.get_gid() == "yours_wrong"][0]
+    assert len(right.get_xdata()) == 0 and len(wrong.get_xdata()) == p.measures["n_points"]

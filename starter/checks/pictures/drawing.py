@@ -30,7 +30,8 @@ def line_distances(lines, pts) -> np.ndarray:
     """(N,) distances in pixels of the points pts (N, 2) to the lines (N, 3) a x + b y + c = 0."""
     lines, pts = np.asarray(lines, float), np.asarray(pts, float)
     with np.errstate(all="ignore"):
-        return np.abs(lines[:, 0] * pts[:, 0] + lines[:, 1] * pts[:, 1] + lines[:, 2]) / np.hypot(lines[:, 0], lines[:, 1])
+        residual = lines[:, 0] * pts[:, 0] + lines[:, 1] * pts[:, 1] + lines[:, 2]
+        return np.abs(residual) / np.hypot(lines[:, 0], lines[:, 1])
 
 
 def clip_line(line, width: float, height: float):

@@ -93,6 +93,7 @@ def need_truth(pub, question: str):
     """``pub``'s truth (scene or P_true), or ValueError saying that ``question``'s figure needs the default data."""
     truth = pub.scene if isinstance(pub, TemplePublic) else pub.P_true
     if truth is None:
-        raise ValueError(f"{question}'s figure needs the true cameras of the kit's default data; {NO_TRUTH} "
+        raise ValueError(f"{question}'s figure needs the ground truth of the kit's default data (its cameras, F and "
+                         f"true points); {NO_TRUTH} "
                          "(restore data/ with `python -m kit data` to see it)")
     return truth

@@ -145,7 +145,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     returned), refineF_off_mean_distance_px, uint16_mean_distance_px (when those runs exist),
     uint16_F_change (0 when the uint16 points give the same F as the float ones, up to scale; about
     1 when unrelated), true_F_mean_distance_px (default data only), s3_over_s2 (of the F as
-    returned, on points / M: about 0 when rank 2), n_lines.
+    returned, on points / M: about 0 when rank 2), n_lines, lines_in_image (of the F as returned: an
+    F that was not unscaled draws its lines outside image 2).
     """
     Fs = {"F": need(outputs, "F", (3, 3))}
     for key in ("F_refineF_off", "F_uint16"):
@@ -172,14 +173,16 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     for row, (key, F) in enumerate(drawn.items()):
         big, dist = _panel_row(fig, grid, row, d, _RUNS[key], F, truth_F, h1, p2[rows], ZOOM_PX)
         mean = float(np.mean(dist)) if np.all(np.isfinite(dist)) else float("inf")
-        note = f"mean distance of the dots to the lines {fmt(mean, 'px')}"
+        note = f"{_RUNS[key]}: dots {fmt(mean, 'px')} from the lines on average"
         measures[f"{_KEYS[key]}mean_distance_px"] = mean
         if key == "F":
             measures["max_distance_px"] = float(np.max(dist)) if np.all(np.isfinite(dist)) else float("inf")
+            h, w = d.im2.shape[:2]
+            measures["lines_in_image"] = float(sum(clip_line(ln, w, h) is not None for ln in h1 @ F.T))
         if key == "F_uint16":
             measures["uint16_F_change"] = _change(F, Fs["F"])
             note += f"; differs from the F of float points by {measures['uint16_F_change']:.3g}"
-        big.set_xlabel(note, fontsize=8)
+        big.set_title(note, fontsize=9)
         parts.append(f"{_RUNS[key]}: {fmt(mean, 'px')}")
     if "F_uint16" in Fs and "F_uint16" not in drawn:
         measures["uint16_F_change"] = _change(Fs["F_uint16"], Fs["F"])
@@ -192,9 +195,11 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            + (" and of the true F (dashed, blue)" if truth_F is not None else "")
            + f" through {dots} (red dots), and a zoom of {ZOOM_PX} px around each dot. "
            + "Mean distance of the dots to your lines: " + "; ".join(parts)
-           + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}" if truth_F is not None else "")
+           + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}"
+              if truth_F is not None else "")
            + (f". The F of uint16 points differs from the F of float points by {measures['uint16_F_change']:.3g} "
               "(0: the same up to scale)" if "uint16_F_change" in measures else "")
+           + f". {int(measures['lines_in_image'])} of your {len(rows)} lines cross image 2"
            + f". Your F (as returned) is {rank} (s3/s2 = {measures['s3_over_s2']:.3g})."
-           + ("" if s is not None else f" {NO_TRUTH}."))
+           + ("" if s is not None else f" There is {NO_TRUTH[3:]}: the dots are the given matches."))
     return to_picture("Q2", "eightpoint: your epipolar lines in image 2", fig, alt, measures)

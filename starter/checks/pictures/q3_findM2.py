@@ -5,10 +5,16 @@ Student side (:func:`run`): ``findM2(F, pts1, pts2, K1, K2)`` (or another year's
 as judging.conventions says) with the default data's true F (3, 3; x2^T F x1 = 0), its matches
 (N, 2) pixels (x, y) and intrinsics; M2 = [R | t] (3, 4) maps world (camera-1) coordinates to camera 2.
 
+It is run twice: on the default data, and on the self-check's twisted-pair case (public data
+shipped beside the checks, twisted_pair.json: matches near the epipoles where one wrong candidate
+puts every point in front of camera 1 and behind camera 2, and reprojects them best).
+
 Trusted side (:func:`draw`): the candidates are starter.camera2(E) for E = K2^T F K1; each is
 drawn seen from above (x to the right, z forward, camera-1 coordinates) with the points a linear
-triangulation gives under it, green in front of both cameras and red behind one.  The right one
-has every point in front of both; the chosen one is framed.
+triangulation gives under it: green in front of both cameras, orange in front of camera 1 only,
+purple in front of camera 2 only, red behind both.  The right one has every point in front of
+both; the chosen one is framed.  A depth test of camera 1 alone picks the all-orange one of the
+twisted pair.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ import numpy as np
 
 from core.geometry import camera_center, depths
 
-from .arrays import call, need, read
+from .arrays import call, maybe, need, read
 from .geometry3d import triangulate_views
 from .picture import Picture, figure, to_picture
 from .public import need_truth, temple
@@ -30,18 +36,31 @@ FUNCTIONS = ("findM2",)
 TOL_DEG = 1.0
 
 
-def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
-    """{"M2": (3, 4)} chosen by the student's findM2 on the default data."""
+def _chosen(fn, F, pts1, pts2, K1, K2) -> np.ndarray:
     from judging.conventions import findM2_call, signature_of_callable
     from judging.pose import read_findM2
+
+    c = findM2_call(signature_of_callable(fn), np.array(F, float), np.array(pts1, float), np.array(pts2, float),
+                    np.array(K1, float), np.array(K2, float))
+    M2, _, _ = read(read_findM2, call(fn, "findM2", *c.args), len(pts1), name="findM2")
+    return np.asarray(M2, float)
+
+
+def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
+    """{"M2": (3, 4)} chosen by the student's findM2 on the default data, and "M2_twisted" (3, 4) on the
+    twisted-pair case (left out when that run fails)."""
+    from ..twisted_pair import public_case
 
     pub = temple(root)
     s, d = need_truth(pub, "Q3.3"), pub.data
     fn = functions["findM2"]
-    c = findM2_call(signature_of_callable(fn), np.array(s.F_true, float), d.pts1.copy(), d.pts2.copy(),
-                    d.K1.copy(), d.K2.copy())
-    M2, _, _ = read(read_findM2, call(fn, "findM2", *c.args), len(d.pts1), name="findM2")
-    return {"M2": np.asarray(M2, float)}
+    out = {"M2": _chosen(fn, s.F_true, d.pts1, d.pts2, d.K1, d.K2)}
+    case = public_case()
+    try:
+        out["M2_twisted"] = _chosen(fn, case.F, case.pts1, case.pts2, case.pair.K1, case.pair.K2)
+    except Exception:  # noqa: BLE001 - the second case only adds a row
+        pass
+    return out
 
 
 def _angle(u, v) -> float:
@@ -65,10 +84,15 @@ def candidate_of(M2, candidates) -> tuple[int, float]:
     return (k if gaps[k] <= TOL_DEG else -1), gaps[k]
 
 
-def _panel(ax, k, M2c, X, front, chosen: bool, right: bool) -> None:
-    ok = front
-    ax.plot(X[ok, 0], X[ok, 2], ".", ms=3, color="#2e7d32", gid="in_front")
-    ax.plot(X[~ok, 0], X[~ok, 2], ".", ms=3, color="#e53935", gid="behind")
+_CLASSES = (("in_front", "#2e7d32", True, True), ("front_1_only", "#ff6f00", True, False),
+            ("front_2_only", "#8e24aa", False, True), ("behind", "#e53935", False, False))
+
+
+def _panel(ax, k, M2c, X, z1, z2, chosen: bool, right: bool, label: str) -> None:
+    front = (z1 > 0) & (z2 > 0)
+    for gid, colour, f1, f2 in _CLASSES:
+        sel = ((z1 > 0) == f1) & ((z2 > 0) == f2)
+        ax.plot(X[sel, 0], X[sel, 2], ".", ms=3, color=colour, gid=gid)
     c2 = camera_center(M2c)
     for centre, R, name in ((np.zeros(3), np.eye(3), "camera 1"), (c2, M2c[:, :3], "camera 2")):
         axis = R.T @ np.array([0.0, 0.0, 1.0])
@@ -83,9 +107,9 @@ def _panel(ax, k, M2c, X, front, chosen: bool, right: bool) -> None:
     pad = 0.15 * max(np.ptp(xs), np.ptp(zs))
     ax.set_xlim(xs.min() - pad, xs.max() + pad)
     ax.set_ylim(zs.min() - pad, zs.max() + pad)
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     tags = ", ".join(t for t, on in (("yours", chosen), ("right", right)) if on)
-    ax.set_title(f"candidate {k + 1}: {int(front.sum())} of {len(front)} in front of both"
+    ax.set_title(f"{label}candidate {k + 1}: {int(front.sum())} of {len(front)} in front of both"
                  + (f" ({tags})" if tags else ""), fontsize=8)
     ax.set_xlabel("x", fontsize=7)
     ax.set_ylabel("z (camera 1's axis)", fontsize=7)
@@ -95,42 +119,77 @@ def _panel(ax, k, M2c, X, front, chosen: bool, right: bool) -> None:
             side.set_linewidth(3)
 
 
+def _candidates(F, pts1, pts2, K1, K2):
+    """(candidates (3, 4, 4), points (4 of (N, 3)), depths in camera 1 and 2 (4 of (N,) each)) of one case."""
+    from starter.pose import camera2
+
+    cands = camera2(np.asarray(K2, float).T @ np.asarray(F, float) @ np.asarray(K1, float))
+    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+    pts, z1s, z2s = [], [], []
+    for k in range(4):
+        X = triangulate_views([K1 @ M1, K2 @ cands[:, :, k]], [pts1, pts2])
+        with np.errstate(invalid="ignore"):
+            z1s.append(np.nan_to_num(depths(M1, X), nan=-1.0))
+            z2s.append(np.nan_to_num(depths(cands[:, :, k], X), nan=-1.0))
+        pts.append(X)
+    return cands, pts, z1s, z2s
+
+
+def _case(axes, M2, F, pts1, pts2, K1, K2, label: str, prefix: str, m: dict) -> str:
+    """Draw one case's four candidates into ``axes``; add its measures to ``m``; return its sentence."""
+    cands, pts, z1s, z2s = _candidates(F, pts1, pts2, K1, K2)
+    fronts = [(a > 0) & (b > 0) for a, b in zip(z1s, z2s)]
+    right = int(np.argmax([f.sum() for f in fronts]))
+    chosen, gap = candidate_of(M2, cands)
+    for k, ax in enumerate(axes):
+        _panel(ax, k, cands[:, :, k], pts[k], z1s[k], z2s[k], k == chosen, k == right, label)
+    n = len(pts1)
+    m.update({f"{prefix}chosen": float(chosen), f"{prefix}chosen_gap_deg": gap, f"{prefix}right": float(right),
+              f"{prefix}chosen_share_in_front": float(fronts[chosen].mean()) if chosen >= 0 else float("nan"),
+              f"{prefix}chosen_share_front_1_only": float(np.mean((z1s[chosen] > 0) & ~(z2s[chosen] > 0)))
+              if chosen >= 0 else float("nan"),
+              f"{prefix}right_share_in_front": float(fronts[right].mean())})
+    shares = "; ".join(f"candidate {k + 1}: {int(f.sum())} of {n}" for k, f in enumerate(fronts))
+    if chosen >= 0:
+        one = int(((z1s[chosen] > 0) & ~(z2s[chosen] > 0)).sum())
+        yours = (f"yours is candidate {chosen + 1} (framed), with {int(fronts[chosen].sum())} of {n} points in front "
+                 f"of both cameras and {one} in front of camera 1 only")
+    else:
+        yours = f"your M2 is none of the four (the nearest is {gap:.3g} degrees away)"
+    return f"Points in front of both cameras: {shares}; the right one is candidate {right + 1}; {yours}."
+
+
 def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     """The Picture of Q3.3.
 
-    measures: chosen (candidate index 0-3 of the student's M2, -1 when none), chosen_gap_deg
-    (degrees from that candidate), right (the index of the candidate with the most points in front
-    of both cameras), chosen_share_in_front, right_share_in_front (shares of the points in front of
-    both cameras under each).
+    measures (default data): chosen (candidate index 0-3 of the student's M2, -1 when none),
+    chosen_gap_deg (degrees from that candidate), right (the index of the candidate with the most
+    points in front of both cameras), chosen_share_in_front, chosen_share_front_1_only,
+    right_share_in_front (shares of the points in front of both cameras, or of camera 1 only);
+    the same prefixed "twisted_" for the twisted-pair case when M2_twisted is given.
     """
-    from starter.pose import camera2
+    from ..twisted_pair import public_case
 
     M2 = need(outputs, "M2", (3, 4))
+    twisted = maybe(outputs, "M2_twisted", (3, 4))
     pub = temple(root)
     s, d = need_truth(pub, "Q3.3"), pub.data
-    E = d.K2.T @ np.asarray(s.F_true, float) @ d.K1
-    cands = camera2(E)
-    C1 = d.K1 @ np.hstack([np.eye(3), np.zeros((3, 1))])
-    pts, fronts = [], []
-    for k in range(4):
-        M2c = cands[:, :, k]
-        X = triangulate_views([C1, d.K2 @ M2c], [d.pts1, d.pts2])
-        with np.errstate(invalid="ignore"):
-            fronts.append((depths(np.hstack([np.eye(3), np.zeros((3, 1))]), X) > 0) & (depths(M2c, X) > 0))
-        pts.append(X)
-    right = int(np.argmax([f.sum() for f in fronts]))
-    chosen, gap = candidate_of(M2, cands)
-    fig, axes = figure(2, 2, size=(4.6, 3.6))
-    for k, ax in enumerate(axes):
-        _panel(ax, k, cands[:, :, k], pts[k], fronts[k], k == chosen, k == right)
-    n = len(d.pts1)
-    m = {"chosen": float(chosen), "chosen_gap_deg": gap, "right": float(right),
-         "chosen_share_in_front": float(fronts[chosen].mean()) if chosen >= 0 else float("nan"),
-         "right_share_in_front": float(fronts[right].mean())}
-    shares = "; ".join(f"candidate {k + 1}: {int(f.sum())} of {n}" for k, f in enumerate(fronts))
-    yours = (f"Yours is candidate {chosen + 1} (framed), with {int(fronts[chosen].sum())} of {n} points in front of both"
-             if chosen >= 0 else f"Your M2 is none of the four (the nearest is {gap:.3g} degrees away)")
-    alt = (f"The four candidate cameras of E seen from above, with the {n} points triangulated under each, green in "
-           f"front of both cameras, red behind one. Points in front of both: {shares}. The right one is candidate "
-           f"{right + 1}. {yours}.")
+    rows = 1 if twisted is None else 2
+    fig, axes = figure(4, rows, size=(3.6, 3.4))
+    m: dict[str, float] = {}
+    text = _case(axes[:4], M2, s.F_true, d.pts1, d.pts2, d.K1, d.K2, "", "", m)
+    from matplotlib.lines import Line2D
+
+    names = {"in_front": "in front of both", "front_1_only": "in front of camera 1 only",
+             "front_2_only": "in front of camera 2 only", "behind": "behind both"}
+    axes[0].legend([Line2D([], [], marker=".", ls="", color=c) for _, c, _, _ in _CLASSES],
+                   [names[g] for g, _, _, _ in _CLASSES], fontsize=6, loc="lower left")
+    alt = (f"The four candidate cameras of E seen from above, with the {len(d.pts1)} points of the default data "
+           "triangulated under each (green in front of both cameras, orange in front of camera 1 only, purple of "
+           f"camera 2 only, red behind both). {text}")
+    if twisted is not None:
+        case = public_case()
+        text = _case(axes[4:], twisted, case.F, case.pts1, case.pts2, case.pair.K1, case.pair.K2, "twisted pair: ",
+                     "twisted_", m)
+        alt += f" The twisted-pair case ({len(case.pts1)} matches near the epipoles): {text}"
     return to_picture("Q3.3", "findM2: the four candidates, and yours", fig, alt, m)

@@ -91,7 +91,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     for x, v in zip((0, 1), vals):
         ax.text(x, v, f"{v:.3g}", ha="center", va="bottom", fontsize=7)
     alt = (f"Images 1 and 2 with the {n} observed matches and the reprojections of your w"
-           + (f" (offsets magnified {magnify:g} times)" if magnify != 1 else "") + f": mean distance {fmt(m['mean_reprojection_px_1'], 'px')} in image 1 and "
+           + (f" (offsets magnified {magnify:g} times)" if magnify != 1 else "")
+           + f": mean distance {fmt(m['mean_reprojection_px_1'], 'px')} in image 1 and "
            f"{fmt(m['mean_reprojection_px_2'], 'px')} in image 2; {front:.0%} of the points in front of both "
            f"cameras. The err you returned is {fmt(err, 'px^2')}; the sum of squares of the distances drawn is "
            f"{fmt(total, 'px^2')}.")

@@ -86,7 +86,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     M2, w = need(outputs, "M2", (3, 4)), need(outputs, "w", (n, 3))
     o1, o2 = float(need(outputs, "o1", (1,))[0]), float(need(outputs, "o2", (1,))[0])
     history = need(outputs, "history", (None,))
-    source = "rodriguesResidual" if float(need(outputs, "history_source", (1,))[0]) == 0 else "the optimiser's objective"
+    from_residual = float(need(outputs, "history_source", (1,))[0]) == 0
+    source = "rodriguesResidual" if from_residual else "the optimiser's objective"
     res = maybe(outputs, "residuals_start", (4 * n,))
     start = total_error(pr.K1, pr.K2, pr.p1, pr.p2, pr.M2_init, pr.w_init)
     end = total_error(pr.K1, pr.K2, pr.p1, pr.p2, M2, w)

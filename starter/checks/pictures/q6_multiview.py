@@ -130,6 +130,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
                 else float("nan")
     axes[0].set_xlabel("detections: filled above Thres, square at Thres, hollow below;\nx: your P reprojected; "
                        "+: the true keypoints", fontsize=7)
+    axes[1].set_xlabel(f"your P is nearest to the triangulation of {RULES[nearest]}" if nearest >= 0 else
+                       "the three rules give the same points here", fontsize=8)
     rule = (f"your P is nearest to a triangulation of the detections with {RULES[nearest]}" if nearest >= 0
             else "the three rules give the same points here")
     alt = (f"The three views of time step {frame.time} with the 12 detections of each (Thres = {THRES:g}; "
