@@ -55,11 +55,12 @@ from pathlib import Path
 from core.text import write_atomic
 from core.untrusted import for_terminal
 
-from . import grade
+from . import feedback_page, grade
 from .config import GradingConfig, configuration, configuration_changes, load_config, tests_fingerprint
 from .gradebook import BatchRecord, earlier_records, read_state, staff_of, write_grades_csv, write_summary
 from .canary import check as canary_check
 from .grade import KIT_ROOT, hidden_cache
+from .pictures import figures_of
 from .hidden.inputs import build_hidden_inputs
 from .results import SubmissionResult
 from .review.library_calls import find_in_class
@@ -159,10 +160,11 @@ def _resumable(folder: Path, digest: str, key: str) -> dict | None:
     return state
 
 
-def _write_outputs(folder: Path, result: SubmissionResult, state: dict) -> None:
+def _write_outputs(folder: Path, result: SubmissionResult, state: dict, figures: dict | None = None) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     result.write_gradescope(folder / "results.json")
     write_atomic(folder / "feedback.md", result.feedback_markdown())
+    feedback_page.write(folder, result, figures or {})  # feedback.html and figures/: the public data's pictures
     # grading.json last: its presence with a matching digest is what marks the work as done.
     write_atomic(_state_path(folder), json.dumps(state, indent=2, allow_nan=False, default=str))
 
@@ -531,7 +533,7 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         return local.box
 
     def finish(result: SubmissionResult, path: Path, name: str, digest: str, staff: dict, start: float,
-               *, poison: bool = False) -> BatchRecord | None:
+               *, poison: bool = False, figures: dict | None = None) -> BatchRecord | None:
         iso = result.isolation if isinstance(result.isolation, dict) else None
         if iso is None and getattr(local, "box", None) is not None:
             iso = local.box.isolation.as_dict()
@@ -544,7 +546,7 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
                 if not sig["setup"]:  # (in the set-up, nothing was started: the journal stays as found)
                     journal.clear(name)
                 return None  # graded (or broken) while being cancelled: nothing recorded, no strike
-            _write_outputs(folder, result, _state(result, path, digest, staff, poison=poison))
+            _write_outputs(folder, result, _state(result, path, digest, staff, poison=poison), figures)
             journal.clear(name)
         return BatchRecord(name, path, folder, result.score, {q.id: q.score for q in result.questions},
                            result.failure, False, time.monotonic() - start, key, level, **staff_of(staff))
@@ -557,9 +559,10 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
         if attempt > 1:
             staff["log"].append(f"graded again: a grader died while grading it (attempt {attempt})")
         journal.start(name, digest, key, attempt)
+        pictures: dict = {}
         try:
             result = grade.grade_submission(path, sandbox=sandbox(), hidden_inputs=hidden_inputs, student_id=name,
-                                            staff=staff, extra_tests=extra_tests)
+                                            staff=staff, extra_tests=extra_tests, pictures=pictures)
         except Exception as exc:  # noqa: BLE001 - the catastrophic path: a failed result, never a stop
             if cancel.is_set():
                 journal.clear(name)
@@ -569,7 +572,7 @@ def _run(paths, names, out: Path, *, jobs, config, record, resume, progress, iso
             result = SubmissionResult.failed(
                 f"the autograder hit an internal error ({type(exc).__name__}) while grading it; the course staff "
                 f"will grade it again", student_id=name, execution_time=time.monotonic() - start)
-        return finish(result, path, name, digest, staff, start)
+        return finish(result, path, name, digest, staff, start, figures=figures_of(pictures))
 
     # What to do with each submission: resume it, record it as failed, or grade it (suspects first).
     records: dict[int, BatchRecord] = {}

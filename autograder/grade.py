@@ -205,7 +205,8 @@ def pytest_command(submission: Path, *, extra_tests: Sequence[Path] = (), option
 
 def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs: HiddenInputs,
                      student_id: str | None = None, staff: dict | None = None,
-                     extra_tests: Sequence[str | os.PathLike] = (), deadline: float | None = None) -> SubmissionResult:
+                     extra_tests: Sequence[str | os.PathLike] = (), deadline: float | None = None,
+                     pictures: dict | None = None) -> SubmissionResult:
     """Grade the submission at ``path`` (a folder or .zip of notebooks or .py files).
 
     Parameters
@@ -222,6 +223,9 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
     deadline : ``time.monotonic()`` by which grading must be over (Gradescope's time limit): the
         session's budget shrinks to end ``_DEADLINE_RESERVE`` seconds before it, so that the checks
         that ran are reported rather than lost to the platform's kill.
+    pictures : optional dict: when given, the unscored picture step runs after the checks
+        (``autograder.pictures``) and this dict receives its raw record (question -> the picture
+        the worker drew, or the sentence why not), for ``autograder.pictures.figures_of``.
 
     Returns
     -------
@@ -249,7 +253,8 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
             backstop = max(min(backstop, deadline - time.monotonic() - 5.0), budget)
         argv = pytest_command(path, extra_tests=[Path(p).resolve() for p in extra_tests], options=[
             "--grading-config", str(config_file), "--hidden-cache", str(cache), "--sandbox-spec", str(spec),
-            "--results", str(results), f"--student-id={student_id}", "--budget", repr(budget)])
+            "--results", str(results), f"--student-id={student_id}", "--budget", repr(budget),
+            *(["--pictures"] if pictures is not None else [])])
         log = work / "pytest.log"
         worker = _take_worker()
         try:
@@ -268,6 +273,8 @@ def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs
     finally:
         shutil.rmtree(work, ignore_errors=True)
     got = data.get("staff", {})
+    if pictures is not None:
+        pictures.update(data.get("pictures") or {})
     staff["log"] += list(got.get("log", []))
     staff.update({k: v for k, v in got.items() if k != "log"})
     result = SubmissionResult.from_dict(data["result"])

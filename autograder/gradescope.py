@@ -62,6 +62,10 @@ What students see (Gradescope's test visibility, per group, set at build time wi
   reach students only when the staff publish the grades).  A check the grader marks hidden stays
   hidden whatever the group says.
 
+- pictures: after each question's tests, one unscored test with the picture of what the student's
+  functions returned on the public data (``autograder.gradescope_pictures``: html output, the
+  figure as a ``data:`` image), shown no earlier than any test of its question.
+
 The summary always shows the base points and the extra credit apart ("Base points: 75 / 75",
 "Extra credit: 15 / 15"); Gradescope's total is the top-level score, extra credit included.
 
@@ -88,6 +92,7 @@ from pathlib import Path
 
 from core.shipping import GRADER_PACKAGES
 
+from .gradescope_pictures import add_pictures
 from .results import SubmissionResult
 
 __all__ = [
@@ -412,6 +417,7 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
     if result.execution_time is None:
         result = dataclasses.replace(result, execution_time=time.monotonic() - start)
     data = result.to_gradescope(visibility=settings["visibility"])
+    add_pictures(data, result, staff.pop("pictures", None))  # figures of the public data, never earlier than their checks
     data["extra_data"]["timing"] = timing  # staff only: extra_data is not shown to students
     if "canary" in staff:
         data["extra_data"]["canary"] = staff["canary"]
@@ -587,7 +593,8 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
             return SubmissionResult.failed(BROKEN, isolation=box.isolation.as_dict())
         timing["canary_seconds"] = round(time.monotonic() - t, 3)
         staff["canary"] = {"passed": True, "score": report.score, "max_score": report.max_score}
-        result = grade_submission(path, sandbox=box, hidden_inputs=hidden, deadline=deadline, staff=staff)
+        result = grade_submission(path, sandbox=box, hidden_inputs=hidden, deadline=deadline, staff=staff,
+                                  pictures=staff.setdefault("pictures", {}))
         # How it was graded (the bundle's settings; the submission's draw as a digest only).
         return dataclasses.replace(result, configuration=configuration(
             config, isolation=box.isolation.level, draw=(result.configuration or {}).get("draw")))

@@ -21,7 +21,9 @@ error is the grader's: zero with "internal error" for the student and the traceb
 Options used by the grader (``autograder.grade``): ``--hidden-cache`` (the batch's hidden inputs,
 made once; each submission gets its own draw of them, ``autograder.hidden.inputs.draw``, and its
 result names the draw by a short digest, ``configuration["draw"]``), ``--sandbox-spec`` (the grader's sandbox, not probed again), ``--results`` (the
-``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget``.
+``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget``,
+``--pictures`` (after the checks, the unscored picture step of ``test_pictures.py``; its record goes
+into the results file as ``pictures``, for ``autograder.pictures.decode``).
 """
 
 from __future__ import annotations
@@ -238,11 +240,14 @@ def pytest_addoption(parser):
     g.addoption("--results", default=None, help="write the SubmissionResult (JSON) here")
     g.addoption("--student-id", default=None, help="the gradebook name of the submission")
     g.addoption("--budget", type=float, default=None, help="seconds for the whole submission (default: from the checks)")
+    g.addoption("--pictures", action="store_true", default=False,
+                help="after the checks, run the unscored picture step on the public data (autograder.pictures)")
 
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "points(value, question, name=None, visibility='visible'): "
                                        "what a hidden check is worth and which question it counts for")
+    config.addinivalue_line("markers", "picture: the unscored picture step (autograder.pictures), run after every check")
     config._hw4 = {"results": {}, "log": [], "session": None, "started": time.monotonic()}
 
 
@@ -292,7 +297,9 @@ def hidden(request, grading_config):
 
 
 def pytest_collection_modifyitems(session, config, items):
-    """A submission that cannot be read is graded no further: no check runs, the result says why."""
+    """A submission that cannot be read is graded no further: no check runs, the result says why.
+    The unscored picture step (marker ``picture``) runs after every check: it cannot delay one."""
+    items.sort(key=lambda item: item.get_closest_marker("picture") is not None)
     path = config.getoption("--submission")
     if not path or _local(config) is not None:
         return
@@ -539,7 +546,8 @@ def pytest_sessionfinish(session, exitstatus):
         staff.update(stdout=info.stdout[:_OUTPUT_KEPT], stderr=info.stderr[:_OUTPUT_KEPT], spawns=info.spawns,
                      swept=info.swept, removed={"entries": info.removed[0], "bytes": info.removed[1]},
                      over_quota=list(info.over_quota))
-    text = json.dumps({"result": result.to_dict(), "staff": staff}, allow_nan=False, default=str)
+    text = json.dumps({"result": result.to_dict(), "staff": staff, "pictures": config._hw4.get("pictures", {})},
+                      allow_nan=False, default=str)
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "w") as fh:
         fh.write(text)

@@ -43,6 +43,7 @@ from core.text import points, private_folder, write_atomic
 from core.untrusted import csv_text, for_html
 from judging.mistakes import KNOWN_MISTAKES
 
+from .examples import mistake_examples
 from .html import STYLE
 from .library_calls import find_in_class
 
@@ -233,7 +234,8 @@ def write_report(graded: str | Path, out: str | Path, *, assignment: str = "HW4 
     pngs["total"] = _histogram_png(rep.totals.values(), base_max, "total (autograded)")
     for key, data in pngs.items():
         written[f"histogram_{key}"] = write_atomic(out / f"histogram_{key.replace('.', '_')}.png", data, mode=_PRIVATE)
-    write_atomic(out / "report.html", _page(rep, pngs, mistakes, calls), mode=_PRIVATE)
+    write_atomic(out / "report.html", _page(rep, pngs, mistakes, calls, mistake_examples(graded, mistakes)),
+                 mode=_PRIVATE)
     written["html"] = out / "report.html"
     return written
 
@@ -246,7 +248,7 @@ def _img(data: bytes, alt: str) -> str:
     return f"<img alt='{for_html(alt)}' src='data:image/png;base64,{base64.b64encode(data).decode()}'>"
 
 
-def _page(rep: ClassReport, pngs: dict, mistakes, calls: dict) -> str:
+def _page(rep: ClassReport, pngs: dict, mistakes, calls: dict, examples: dict | None = None) -> str:
     n = len(rep.students)
     e = for_html
     parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>Class report</title>",
@@ -271,10 +273,12 @@ def _page(rep: ClassReport, pngs: dict, mistakes, calls: dict) -> str:
         parts.append(f"<tr{cls}><td>{qid}</td><td>{e(test)}</td><td>{passed} / {seen}</td><td>{share:.0%}</td></tr>")
     parts.append("</table><h2>Named mistakes</h2>")
     if mistakes:
-        parts.append("<table><tr><th>question</th><th>mistake</th><th>students</th><th>who</th></tr>")
+        parts.append("<table><tr><th>question</th><th>mistake</th><th>students</th><th>who</th>"
+                     "<th>an example (public data)</th></tr>")
         for (qid, name), studs in mistakes:
+            example = (examples or {}).get((qid, name))
             parts.append(f"<tr><td>{qid}</td><td>{e(name)}</td><td>{len(studs)}</td>"
-                         f"<td>{e(', '.join(sorted(studs)))}</td></tr>")
+                         f"<td>{e(', '.join(sorted(studs)))}</td><td>{_img(*example) if example else ''}</td></tr>")
         parts.append("</table>")
     else:
         parts.append("<p>No known mistake was named in the feedback.</p>")

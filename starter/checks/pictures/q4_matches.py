@@ -51,11 +51,13 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
     fn = functions["epipolarCorrespondence"]
     im1, im2 = course_image(s.im1), course_image(s.im2)
     pts1, _ = points(s)
-    found = []
-    for x, y in pts1:
-        value = call(fn, "epipolarCorrespondence", im1.copy(), im2.copy(), np.array(s.F_true, float),
-                     int(round(x)), int(round(y)))
-        found.append(read(read_match, value, name="epipolarCorrespondence"))
+    pixels = [(int(round(x)), int(round(y))) for x, y in pts1]
+    if callable(getattr(fn, "map", None)):  # the grader's sandboxed function: one request, the images sent once
+        values = fn.map(pixels, args=(im1, im2, np.array(s.F_true, float)))
+    else:
+        values = [call(fn, "epipolarCorrespondence", im1.copy(), im2.copy(), np.array(s.F_true, float), x, y)
+                  for x, y in pixels]
+    found = [read(read_match, value, name="epipolarCorrespondence") for value in values]
     return {"pts2": np.array(found, dtype=float).reshape(-1, 2)}
 
 

@@ -1,0 +1,35 @@
+"""The unscored picture step: what the student's functions do on the PUBLIC data, for the figures
+of their feedback (``autograder.pictures``).
+
+It runs only when the grader asks for pictures (``--pictures``), after every scored check (the
+plugin orders the ``picture`` items last), one test per question of
+``starter.checks.pictures.QUESTIONS``.  The student's functions run in the sandbox session of the
+checks, within ``autograder.pictures.SECONDS`` per question; what they return is drawn here
+(``autograder.pictures.drawn``: this process never runs student code).  Whatever they do, the
+test passes and records either the picture or the sentence "figure not drawn: ...".  It has no ``points`` marker:
+it never counts in the result.
+"""
+
+import pytest
+
+from autograder.pictures import contract, drawn, run_public
+
+
+def _questions() -> tuple[str, ...]:
+    try:
+        return tuple(contract().QUESTIONS)
+    except ImportError:  # a kit without the pictures module: no step
+        return ()
+
+
+@pytest.mark.picture
+@pytest.mark.parametrize("question", _questions())
+def test_picture(question, request):
+    config = request.config
+    if not config.getoption("--pictures"):
+        pytest.skip("pictures were not asked for (--pictures)")
+    student = request.getfixturevalue("student")
+    record = run_public(student, question)
+    if record:  # {}: no picture of this question in the pictures module
+        # Drawn here, in this worker (the grader's own process; student code ran in the sandbox).
+        config._hw4.setdefault("pictures", {})[question] = drawn(question, record)

@@ -1,0 +1,279 @@
+"""Pictures of what a student's code did on the PUBLIC data: run in the sandbox, drawn by the grader.
+
+Never scored, never on hidden scenes.  The steps, each in the process allowed to do it:
+
+1. ``run_public(student, question)``, in the grading worker's pytest session (the unscored step
+   ``autograder/hidden/test_pictures.py``, after every scored check):
+   ``starter.checks.pictures.public_outputs`` runs with each student function replaced by a call
+   through the sandbox session (``Student.outcome``/``map``), so student code runs only in the
+   sandboxed child and what it returns arrives as ``core.wire`` data, decoded with the session's
+   size limits, then checked (``_checked``: str names, float arrays, ``LIMITS``).  The
+   question's calls share ``SECONDS`` (times the config's ``time_scale``).  The answer is plain
+   JSON: ``{"outputs": <wire>}`` or ``{"error": "figure not drawn: ..."}``; nothing raised there
+   reaches the grade.
+2. ``drawn(question, record)``, in the same worker (the grader's own process, which never runs
+   student code; a batch's ``--jobs`` workers draw in parallel): the outputs decoded again and
+   drawn (``starter.checks.pictures.draw``, trusted, calls no student code) -> ``{"picture":
+   {title, alt, png (base64), measures}}`` or ``{"error": ...}``, for the worker's results file.
+3. ``figures_of(raw)``, in the grader: each record checked again (known questions, a PNG of at
+   most ``MAX_PNG`` bytes, bounded texts, finite measures; ``outputs`` still to draw are drawn
+   here) -> question -> ``Picture``, or the sentence "figure not drawn: ...".
+
+Every sentence may quote the student (an exception's message): its writers escape it
+(``core.untrusted``).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from core import wire
+
+__all__ = ["LIMITS", "MAX_PNG", "NOT_DRAWN", "SECONDS", "PictureFailed", "contract", "decode", "draw_all", "drawn",
+           "figures_of", "finite_measures", "run_public"]
+
+NOT_DRAWN = "figure not drawn: "
+SECONDS = 10.0          # a question's calls together, in the checks' designed seconds (times time_scale)
+_MAX_NAMES = 32         # arrays per question
+_MAX_NAME = 64          # characters of an array's name
+_MAX_ELEMENTS = 1_000_000   # numbers in one array (8 MB as float64)
+_MAX_TOTAL = 4_000_000      # numbers in one question's outputs
+LIMITS = wire.Limits(max_array_bytes=_MAX_ELEMENTS * 16, max_total_bytes=_MAX_TOTAL * 16, max_string=_MAX_NAME,
+                     max_items=_MAX_NAMES * 4, max_depth=4, max_ndim=4)
+MAX_PNG = 2_000_000         # bytes of one drawn picture
+_MAX_TEXT = 4000            # characters of a title or an alt text
+_draw_lock = threading.Lock()   # matplotlib's state is the process's: a batch's threads draw one at a time
+
+
+class PictureFailed(Exception):
+    """A student call of the picture step that did not return: its sentence is the picture's note."""
+
+
+def contract():
+    """The pictures module (``starter.checks.pictures``): ``QUESTIONS``, ``FUNCTIONS``,
+    ``public_outputs``, ``draw``, ``Picture``.  Imported when first needed."""
+    from starter.checks import pictures
+
+    return pictures
+
+
+class _Proxies(Mapping):
+    """name -> a callable that calls the student's ``name`` in the sandbox within what is left of
+    the question's ``seconds``; the first failure is kept (a picture needs every call it makes).
+
+    Each callable also has ``map(inputs, args=())``: the values of ``fn(*args, *a)`` for each
+    tuple ``a`` of ``inputs``, in one sandbox request, so that common arguments (two images)
+    cross the wire once rather than once per call (a pictures module uses it when it is there)."""
+
+    def __init__(self, student, names, seconds: float):
+        self.student, self.names = student, tuple(names)
+        self.scale = float(getattr(student, "time_scale", 1.0) or 1.0)
+        self.deadline = time.monotonic() + seconds * self.scale
+        self.seconds = seconds
+        self.failure: str | None = None
+
+    def _seconds_left(self) -> float:
+        """Wall-clock seconds left for the question's calls; PictureFailed once there are none."""
+        if self.failure is not None:
+            raise PictureFailed(self.failure)
+        left = self.deadline - time.monotonic()
+        if left <= 0.05 * self.scale:
+            self.failure = f"the picture's calls took more than {self.seconds:g} s"
+            raise PictureFailed(self.failure)
+        return left
+
+    def _value(self, name: str, outcome):
+        if not outcome.ok:
+            from .hidden.feedback import failure
+
+            self.failure = failure(name, outcome)
+            raise PictureFailed(self.failure)
+        return outcome.value
+
+    def __getitem__(self, name):
+        if name not in self.names:
+            raise KeyError(name)
+
+        def call(*args, **kwargs):
+            left = self._seconds_left() / self.scale   # Student.outcome multiplies by time_scale
+            return self._value(name, self.student.outcome(name, *args, seconds=left, **kwargs))
+
+        def each(inputs, args=()):
+            """``[call(*args, *a) for a in inputs]`` in one request: ``args`` (the images) cross once."""
+            left = self._seconds_left()                # Student.map takes seconds as they are
+            outcomes = self.student.map(name, [(tuple(a), {}) for a in inputs], args=tuple(args), seconds=left,
+                                        budget=left)
+            return [self._value(name, o) for o in outcomes]
+
+        call.__name__ = call.__qualname__ = str(name)
+        call.map = each
+        return call
+
+    def __iter__(self):
+        return iter(self.names)
+
+    def __len__(self):
+        return len(self.names)
+
+
+def run_public(student, question: str, *, seconds: float = SECONDS, root=None) -> dict:
+    """The picture step of one question, as JSON-able data for the worker's results file.
+
+    ``student``: the plugin's ``Student`` (or ``LocalStudent``): anything with ``outcome(name,
+    *args, seconds=...)`` and ``map(name, inputs, args=..., seconds=..., budget=...)``.  Returns
+    ``{"outputs": wire data}``, ``{"error": "figure not drawn: ..."}``, or ``{}`` when the
+    pictures module has no picture of ``question`` (NotImplementedError); never raises for what
+    the student's code does (a bug of the picture code is named as the grader's, its type only).
+    """
+    pictures = contract()
+    proxies = _Proxies(student, pictures.FUNCTIONS.get(question, ()), seconds)
+    try:
+        outputs = pictures.public_outputs(question, proxies, root=root)
+    except PictureFailed:
+        pass
+    except Exception as exc:  # noqa: BLE001 - the picture step never costs the grade
+        if proxies.failure is None:
+            if isinstance(exc, NotImplementedError):  # no picture designed for this question: none shown
+                return {}
+            refused = getattr(pictures, "PictureRunError", ())
+            if refused and isinstance(exc, refused):  # what came back cannot be drawn: the module says why
+                return {"error": NOT_DRAWN + str(exc)[:500]}
+            return {"error": f"{NOT_DRAWN}the grader could not run this picture ({type(exc).__name__})"}
+    if proxies.failure is not None:
+        return {"error": NOT_DRAWN + proxies.failure}
+    try:
+        return {"outputs": wire.encode(_checked(outputs))}
+    except (ValueError, TypeError) as exc:
+        return {"error": f"{NOT_DRAWN}{exc}"}
+
+
+def _checked(outputs) -> dict[str, np.ndarray]:
+    """``outputs`` as the contract says (str names -> float64 arrays), within ``LIMITS``; ValueError."""
+    if not isinstance(outputs, Mapping) or len(outputs) > _MAX_NAMES:
+        raise ValueError(f"expected at most {_MAX_NAMES} named arrays, got {type(outputs).__name__}")
+    out, total = {}, 0
+    for name, value in outputs.items():
+        if not isinstance(name, str) or not 0 < len(name) <= _MAX_NAME:
+            raise ValueError("expected array names of 1 to 64 characters")
+        if isinstance(value, np.ndarray) and value.dtype.kind not in "biuf":
+            raise ValueError(f"{name}: expected numbers, got {value.dtype} values")
+        try:
+            arr = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: expected numbers") from None
+        if arr.ndim > LIMITS.max_ndim or arr.size > _MAX_ELEMENTS:
+            raise ValueError(f"{name}: expected at most {_MAX_ELEMENTS} numbers in {LIMITS.max_ndim} dimensions, "
+                             f"got {arr.size} in {arr.ndim}")
+        total += arr.size
+        out[name] = arr
+    if total > _MAX_TOTAL:
+        raise ValueError(f"expected at most {_MAX_TOTAL} numbers in all, got {total}")
+    return out
+
+
+def decode(raw, questions=None) -> dict:
+    """The worker's ``pictures`` record, checked: question -> outputs (str -> float64 array) still
+    to draw, a ``Picture`` drawn by the worker, or the sentence why there is no figure.  Unknown questions and malformed entries are dropped or
+    turned into a sentence; never raises."""
+    if questions is None:
+        try:
+            questions = tuple(contract().QUESTIONS)
+        except ImportError:
+            return {}
+    out: dict[str, dict | str] = {}
+    if not isinstance(raw, Mapping):
+        return out
+    for q in questions:
+        entry = raw.get(q)
+        if not isinstance(entry, Mapping):
+            continue
+        if isinstance(entry.get("error"), str):
+            text = entry["error"][:2000]
+            out[q] = text if text.startswith(NOT_DRAWN) else NOT_DRAWN + text
+            continue
+        if "picture" in entry:
+            out[q] = _picture_of(q, entry["picture"])
+            continue
+        try:
+            out[q] = _checked(wire.decode(entry.get("outputs"), LIMITS))
+        except (wire.WireError, ValueError, TypeError) as exc:
+            out[q] = f"{NOT_DRAWN}what came back could not be read ({str(exc)[:200]})"
+    return out
+
+
+def _picture_of(question: str, data):
+    """The ``Picture`` a worker drew (``drawn``), checked; the sentence why not when it is malformed."""
+    import base64
+    import binascii
+
+    try:
+        png = base64.b64decode(data["png"], validate=True) if len(data["png"]) <= MAX_PNG * 4 // 3 + 4 else b""
+        title, alt = data["title"], data["alt"]
+        measures = {str(k)[:_MAX_NAME]: float(v) for k, v in dict(data.get("measures") or {}).items()}
+        if not (png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) <= MAX_PNG and isinstance(title, str)
+                and isinstance(alt, str) and alt.strip() and len(measures) <= _MAX_NAMES):
+            raise ValueError("not a picture")
+    except (KeyError, TypeError, ValueError, AttributeError, binascii.Error):
+        return f"{NOT_DRAWN}the picture could not be read"
+    return contract().Picture(question, title[:_MAX_TEXT], png, alt[:_MAX_TEXT], measures)
+
+
+def drawn(question: str, record: dict, root=None) -> dict:
+    """``record`` (``run_public``'s) with its outputs drawn: ``{"picture": {title, alt, png
+    (base64), measures}}`` or ``{"error": ...}`` (the record's own, or why it could not be drawn)."""
+    import base64
+
+    figure = draw_all(decode({question: record}, (question,)), root=root).get(question)
+    if figure is None:
+        return {}
+    if isinstance(figure, str):
+        return {"error": figure}
+    return {"picture": {"title": str(figure.title), "alt": str(figure.alt), "measures": finite_measures(figure),
+                        "png": base64.b64encode(figure.png).decode("ascii")}}
+
+
+def draw_all(decoded: Mapping, root=None) -> dict:
+    """question -> ``Picture`` (``starter.checks.pictures.draw`` of its outputs; one drawn already
+    stays) or the sentence "figure not drawn: ..." (the step's own, or the drawing's failure,
+    named as the grader's)."""
+    out: dict = {}
+    for q, outputs in decoded.items():
+        if not isinstance(outputs, Mapping):  # a sentence, or a Picture drawn already
+            out[q] = outputs
+            continue
+        try:
+            with _draw_lock:
+                picture = contract().draw(q, outputs, root=root)
+            if not (isinstance(picture.png, bytes) and picture.png.startswith(b"\x89PNG")):
+                raise ValueError("draw returned no PNG")
+            out[q] = picture
+        except Exception as exc:  # noqa: BLE001 - a figure that cannot be drawn is a note, not a failure
+            out[q] = f"{NOT_DRAWN}the grader could not draw it ({type(exc).__name__})"
+    return out
+
+
+def figures_of(raw, root=None) -> dict:
+    """``draw_all(decode(raw))``: question -> ``Picture`` or "figure not drawn: ..."; never raises
+    (no pictures module, or anything unexpected: no figures)."""
+    try:
+        return draw_all(decode(raw), root=root)
+    except Exception:  # noqa: BLE001 - pictures never cost the results
+        return {}
+
+
+def finite_measures(picture) -> dict[str, float]:
+    """The picture's measures that are finite numbers, by name (for text beside the figure)."""
+    out = {}
+    for k, v in dict(getattr(picture, "measures", {}) or {}).items():
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            continue
+        if math.isfinite(v):
+            out[str(k)] = v
+    return out

@@ -1,0 +1,206 @@
+"""The picture step's data path and its writers, in this process on a stand-in pictures module.
+
+``autograder.pictures``: a student function's failure, a missing function, something that cannot
+be drawn or a drawing that breaks each cost that question's picture only ("figure not drawn: ...");
+what comes back from the worker is checked again (sizes, dtypes, questions).  The feedback page,
+Gradescope's picture tests and the class report's examples escape every student text, keep a
+picture no earlier than its question's checks and name no student.  (The browser and the real
+sandbox: tests/test_feedback_browser.py and tests/test_picture_step_sandbox.py.)
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from autograder import feedback_page, gradescope_pictures
+from autograder import pictures as step
+from autograder.hidden.plugin import LocalStudent
+from autograder.results import QuestionResult, SubmissionResult, TestResult
+from core import wire
+from tests import picture_standin
+
+HOSTILE = "<script>window.pwned=1</script> =cmd|' /C calc'!A0 \x1b[31mred\x1b]8;;http://x\x07 \u202e"
+
+
+@pytest.fixture(autouse=True)
+def standin(monkeypatch):
+    monkeypatch.setattr(step, "contract", lambda: picture_standin)
+    return picture_standin
+
+
+def good_eightpoint(pts1, pts2, M):
+    return np.arange(9.0).reshape(3, 3)
+
+
+def good_triangulate(C1, pts1, C2, pts2):
+    return np.ones((len(pts1), 3)), 0.5
+
+
+def hostile_eightpoint(pts1, pts2, M):
+    raise ValueError(HOSTILE)
+
+
+def run(functions, question="Q2"):
+    return step.run_public(LocalStudent(functions), question)
+
+
+def test_outputs_cross_as_wire_data_and_are_drawn():
+    raw = {"Q2": run({"eightpoint": good_eightpoint}), "Q3.2": run({"triangulate": good_triangulate}, "Q3.2")}
+    raw = json.loads(json.dumps(raw))  # as the worker's results file carries it
+    figures = step.figures_of(raw)
+    assert set(figures) == {"Q2", "Q3.2"}
+    assert figures["Q2"].png.startswith(b"\x89PNG") and figures["Q2"].alt
+    assert figures["Q3.2"].measures["numbers"] == 36.0
+
+
+@pytest.mark.parametrize("functions, says", [
+    ({"eightpoint": hostile_eightpoint}, "figure not drawn: eightpoint raised ValueError"),
+    ({}, "figure not drawn: eightpoint is not defined"),
+    ({"eightpoint": lambda *a: "not a matrix"}, "figure not drawn: the grader could not run this picture"),
+])
+def test_a_failure_costs_the_picture_only_and_says_why(functions, says):
+    record = run(functions)
+    assert set(record) == {"error"} and record["error"].startswith(says)
+    figures = step.figures_of({"Q2": record, "Q3.2": run({"triangulate": good_triangulate}, "Q3.2")})
+    assert isinstance(figures["Q2"], str) and figures["Q2"].startswith("figure not drawn: ")
+    assert not isinstance(figures["Q3.2"], str)
+
+
+def test_a_drawing_that_breaks_is_the_graders_note(monkeypatch):
+    raw = {"Q2": run({"eightpoint": good_eightpoint})}
+
+    def broken(question, outputs, root=None):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(picture_standin, "draw", broken)
+    assert step.figures_of(raw) == {"Q2": "figure not drawn: the grader could not draw it (RuntimeError)"}
+
+
+def test_the_worker_draws_and_the_grader_checks_the_drawing_again():
+    raw = {"Q2": step.drawn("Q2", run({"eightpoint": good_eightpoint})),
+           "Q3.2": step.drawn("Q3.2", run({"eightpoint": hostile_eightpoint}))}
+    assert set(raw["Q2"]) == {"picture"} and raw["Q3.2"]["error"].startswith("figure not drawn: ")
+    figures = step.figures_of(json.loads(json.dumps(raw)))
+    assert figures["Q2"].png.startswith(b"\x89PNG") and figures["Q2"].alt and figures["Q2"].question == "Q2"
+    good = raw["Q2"]["picture"]
+    for bad in ({**good, "png": "not base64!"}, {**good, "png": "aGVsbG8="}, {**good, "alt": ""},
+                {**good, "png": "A" * (step.MAX_PNG * 2)}, {"png": good["png"]}):
+        assert step.figures_of({"Q2": {"picture": bad}}) == {"Q2": "figure not drawn: the picture could not be read"}
+
+
+@pytest.mark.parametrize("entry", [
+    {"outputs": {"__dict__": {"F": wire.encode(np.ones((2000, 1000)))}}},     # too many numbers
+    {"outputs": {"__dict__": {"F": wire.encode(np.ones(3, dtype=complex))}}},  # not real numbers
+    {"outputs": {"__dict__": {"x" * 100: 1.0}}},                              # a name too long
+    {"outputs": {"__ndarray__": "not base64 npy"}},
+    {"outputs": "plain text"},
+])
+def test_what_comes_back_is_checked_again(entry):
+    out = step.decode({"Q2": entry})
+    assert out["Q2"].startswith("figure not drawn: ")
+
+
+def test_unknown_questions_and_junk_are_dropped():
+    assert step.decode({"Q9": {"error": "x"}, "Q2": 7}) == {}
+    assert step.decode("junk") == {}
+    assert step.decode({"Q2": {"error": "raw"}}) == {"Q2": "figure not drawn: raw"}
+
+
+# ------------------------------------------------------------------------------------------------
+# the writers
+
+
+def result_with(feedback: str, visibility: str = "visible", student_id: str = HOSTILE) -> SubmissionResult:
+    q2 = QuestionResult.of("Q2", [TestResult("eightpoint fits the matches", 0.0, 6.0, feedback=feedback,
+                                             visibility=visibility),
+                                  TestResult("rank 2", 4.0, 4.0)])
+    q32 = QuestionResult.of("Q3.2", [TestResult("triangulate", 10.0, 10.0, visibility="hidden")])
+    return SubmissionResult((q2, q32), student_id=student_id)
+
+
+def figures():
+    return step.figures_of({"Q2": run({"eightpoint": hostile_eightpoint}),
+                            "Q3.2": run({"triangulate": good_triangulate}, "Q3.2")})
+
+
+def test_the_page_is_offline_escapes_student_text_and_keeps_hidden_checks_nameless(tmp_path):
+    path = feedback_page.write(tmp_path, result_with("eightpoint raised ValueError: " + HOSTILE), figures())
+    html = path.read_text()
+    assert "<script>" not in html and "&lt;script&gt;" in html
+    assert "\x1b" not in html and "\u202e" not in html and "\\u202e" in html
+    assert feedback_page.CSP in html and "http://" not in html.replace("http://x", "")
+    assert "1 hidden check(s): 10 / 10" in html and ">triangulate (" not in html
+    assert html.count("<img ") == 1 and 'alt="A line plot' in html
+    assert "figure not drawn: eightpoint raised ValueError" in html
+    index = json.loads((tmp_path / "figures" / "figures.json").read_text())
+    assert index["Q3.2"]["file"] == "Q3_2.png" and (tmp_path / "figures" / "Q3_2.png").read_bytes()[:4] == b"\x89PNG"
+    assert index["Q2"]["error"].startswith("figure not drawn: ")
+
+
+@pytest.mark.parametrize("layout, q2, q32", [
+    (None, "visible", "hidden"),
+    ({"checks": "after_published"}, "after_published", "hidden"),
+    ({"checks": "after_due_date", "scores": "visible"}, "after_due_date", "hidden"),
+])
+def test_gradescope_pictures_are_shown_no_earlier_than_their_checks(layout, q2, q32):
+    result = result_with("failed: " + HOSTILE)
+    data = result.to_gradescope(visibility=layout)
+    raw = {"Q2": run({"eightpoint": good_eightpoint}), "Q3.2": run({"triangulate": good_triangulate}, "Q3.2")}
+    gradescope_pictures.add_pictures(data, result, raw)
+    shown = {t["name"].split()[0]: t for t in data["tests"] if " picture: " in t["name"]}
+    assert shown["Q2"]["visibility"] == q2 and shown["Q3.2"]["visibility"] == q32
+    assert shown["Q2"]["status"] == "failed" and shown["Q3.2"]["status"] == "passed"  # their question's
+    for t in shown.values():
+        assert t["output_format"] == "html" and "score" not in t and "max_score" not in t
+        assert 'src="data:image/png;base64,' in t["output"] and 'alt="A line plot' in t["output"]
+    names = [t["name"] for t in data["tests"]]
+    for qid, t in shown.items():  # right after the question's last test
+        at = names.index(t["name"])
+        assert names[at - 1].startswith(qid + " ") and not any(n.startswith(qid + " ") for n in names[at + 1:])
+    assert data["score"] == result.score
+    json.dumps(data, allow_nan=False)
+
+
+def test_gradescope_picture_of_a_failure_is_escaped_and_a_failed_result_gets_none():
+    result = result_with("x")
+    data = result.to_gradescope(visibility={})
+    gradescope_pictures.add_pictures(data, result, {"Q2": run({"eightpoint": hostile_eightpoint})})
+    t, = [t for t in data["tests"] if " picture: " in t["name"]]
+    assert t["name"] == "Q2 picture: figure not drawn"
+    assert "<script>" not in t["output"] and "&lt;script&gt;" in t["output"] and "\x1b" not in t["output"]
+    failed = SubmissionResult.failed("unreadable")
+    data = failed.to_gradescope(visibility={})
+    assert gradescope_pictures.add_pictures(data, failed, {"Q2": run({"eightpoint": good_eightpoint})})["tests"] == []
+
+
+def test_the_class_report_shows_one_nameless_example_per_named_mistake(tmp_path):
+    from autograder.review.examples import mistake_examples
+
+    graded = tmp_path / "graded"
+    for name in ("zoe<b>", "adam"):
+        feedback_page.write(graded / name, result_with("x", student_id=name), step.figures_of(
+            {"Q3.2": run({"triangulate": good_triangulate}, "Q3.2")}))
+    examples = mistake_examples(graded, [(("Q3.2", "some mistake"), {"zoe<b>", "adam"}),
+                                         (("Q2", "other"), {"adam"})])
+    assert set(examples) == {("Q3.2", "some mistake")}
+    png, alt = examples[("Q3.2", "some mistake")]
+    assert png == (graded / "adam" / "figures" / "Q3_2.png").read_bytes()
+    assert "adam" not in alt and "zoe" not in alt
+
+
+def test_the_report_page_puts_the_example_beside_its_mistake(tmp_path):
+    from autograder.review.report import write_report
+
+    graded = tmp_path / "graded"
+    figure = step.figures_of({"Q2": run({"eightpoint": good_eightpoint})})
+    for name in ("student<i>one", "student-two"):
+        result = result_with("Likely mistake: F transposed.", student_id=name)
+        feedback_page.write(graded / name, result, figure)
+        result.write_gradescope(graded / name / "results.json")
+    html = write_report(graded, tmp_path / "report")["html"].read_text()
+    row = next(r for r in html.split("<tr>") if "F transposed" in r)
+    example = row.split("</td>")[-2]
+    assert "<img" in example and "A line plot" in example and "student" not in example
