@@ -247,6 +247,8 @@ class SubmissionResult:
             "score": round(self.score, 6),
             "output": self._summary_markdown(),
             "output_format": "md",
+            # Each test's output is escaped for Markdown; without this Gradescope shows it as text.
+            "test_output_format": "md",
             "visibility": "visible",
             "stdout_visibility": "hidden",  # the grader's log is for staff only
             "tests": [],

@@ -72,6 +72,8 @@ def test_gradescope_results_json():
     data = json.loads(json.dumps(result.to_gradescope(), allow_nan=False))
     assert data["score"] == pytest.approx(4 + 1.5 + 0 + 2 + question("Q6").points)
     assert data["stdout_visibility"] in ("hidden", "visible") and data["visibility"] == "visible"
+    # The outputs are escaped for Markdown, so Gradescope must be told to render them as Markdown.
+    assert data["output_format"] == data["test_output_format"] == "md"
     assert data["extra_data"]["isolation"]["level"] == "namespaces"
     tests = data["tests"]
     assert len(tests) == 6
