@@ -75,3 +75,26 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.path.name in FULL_TIER_FILES:
             item.add_marker(pytest.mark.slow)
+
+
+# Two test processes (pytest-xdist), each given a whole file at a time, so that CI's two cores are
+# both used (in one process, much of a file's time is spent waiting on sandboxes, kernels, workers
+# or a browser).
+# Set here rather than in pyproject's addopts so that it is the kit's suite only: a pytest run of an
+# instructor's own checks from the kit's folder (README, "adding a check") stays one plain session.
+# ``-n 0`` (or ``-s``, whose output xdist would swallow, or ``--pdb``) runs everything in this
+# process, as before; ``-n 4`` more processes.
+TEST_PROCESSES = 2
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_cmdline_main(config):
+    option = config.option
+    if (not config.pluginmanager.hasplugin("xdist") or hasattr(config, "workerinput")
+            or getattr(option, "numprocesses", 0) is not None or option.capture == "no"
+            or getattr(option, "usepdb", False) or option.collectonly):
+        return
+    option.numprocesses = TEST_PROCESSES
+    if option.dist == "no":
+        option.dist = "loadfile"       # a module's fixtures are computed once, in one process
+
