@@ -69,3 +69,42 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.path.name in FULL_TIER_FILES:
             item.add_marker(pytest.mark.slow)
+    if hasattr(config, "workerinput"):  # a pytest-xdist process: every one sorts alike
+        _costliest_first(items)
+
+
+# Two test processes (pytest-xdist), each given a whole file at a time, so that CI's two cores are
+# both used (in one process, much of a file's time is spent waiting on sandboxes, kernels, workers
+# or a browser).
+# Set here rather than in pyproject's addopts so that it is the kit's suite only: a pytest run of an
+# instructor's own checks from the kit's folder (README, "adding a check") stays one plain session.
+# ``-n 0`` (or ``-s``, whose output xdist would swallow, or ``--pdb``) runs everything in this
+# process, as before; ``-n 4`` more processes.
+TEST_PROCESSES = 2
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_cmdline_main(config):
+    option = config.option
+    if not config.pluginmanager.hasplugin("xdist") or hasattr(config, "workerinput"):
+        return
+    if option.numprocesses is None and not (option.capture == "no" or option.usepdb or option.collectonly):
+        option.numprocesses = TEST_PROCESSES
+    if option.numprocesses and option.dist == "no":
+        option.dist = "loadfile"       # a module's fixtures are computed once, in one process
+        option.loadscopereorder = False  # the files in COSTLIEST_FIRST's order (xdist's: most tests first)
+
+
+# The files that took longest in the last one-process runs (pytest's --durations list), first: with two
+# processes taking the next file as they finish one, a long file started last would leave the
+# other process idle at the end.  The other files follow in their usual order.
+COSTLIEST_FIRST = (
+    "test_secret_sweep.py", "test_real_styles.py", "test_autograder_grading.py", "test_hidden_draws.py",
+    "test_matching_easy_points.py", "test_refine_switch.py", "test_sandbox_leaks.py", "test_gradescope.py",
+    "test_nbgrader_course.py", "test_colab_like.py", "test_pdf.py", "test_browser_widgets.py", "test_notebooks.py",
+)
+
+
+def _costliest_first(items) -> None:
+    rank = {name: k for k, name in enumerate(COSTLIEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: a file's tests keep their order

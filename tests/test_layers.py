@@ -9,6 +9,7 @@ function body counts like any other.  A second test looks for circles between mo
 from __future__ import annotations
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
@@ -121,14 +122,15 @@ def test_every_shipped_package_has_a_layer():
 
 
 def test_the_reader_sees_imports_inside_functions(tmp_path, monkeypatch):
-    # The checker itself must not miss a hidden import, or the next test proves nothing.
-    probe = KIT_ROOT / "scenes" / "_layer_probe_tmp.py"
-    monkeypatch.setattr("tests.test_layers.shipped_files", lambda: [probe])
+    # The checker itself must not miss a hidden import, or the next test proves nothing.  The probe
+    # is the one module of a kit laid out in tmp_path: the kit's own folders are left alone (another
+    # test process may be copying scenes/ into a release meanwhile).
+    probe = tmp_path / "scenes" / "_layer_probe_tmp.py"
+    probe.parent.mkdir()
     probe.write_text("def f():\n    from starter import data\n    return data\n", encoding="utf-8")
-    try:
-        edges = kit_edges()
-    finally:
-        probe.unlink()
+    monkeypatch.setattr(sys.modules[__name__], "KIT_ROOT", tmp_path)
+    assert shipped_files() == [probe]
+    edges = kit_edges()
     assert ("scenes/_layer_probe_tmp.py", 2, "scenes._layer_probe_tmp", "starter.data") in edges
     assert violations(edges)
 
