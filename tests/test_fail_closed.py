@@ -93,7 +93,7 @@ DRIVER = textwrap.dedent("""\
     import json, os, sys
     from autograder.canary import check
     from autograder.config import quick_config
-    from autograder.grade import grade_submission
+    from autograder.run import grade_submission
     from autograder.hidden.inputs import build_hidden_inputs
     from autograder.sandbox import Sandbox
 
