@@ -24,8 +24,7 @@ from pathlib import Path
 import corpus
 import pytest
 
-from autograder.run import GradingRun, grade_submission
-from autograder.hidden.inputs import build_hidden_inputs
+from autograder.run import GradingRun
 from autograder.batch import ConfigurationMismatch, grade_batch
 from autograder.config import configuration_changes, load_config, quick_config
 from autograder.regrade import accept, diff_folders
@@ -83,11 +82,10 @@ def alone(tmp_path_factory) -> dict:
     much Q2 takes off is the hidden checks' business; a batch must record exactly this): the total
     by name, Q2's by (name, "Q2")."""
     root = tmp_path_factory.mktemp("alone")
-    hidden = build_hidden_inputs(quick_config())
     scores = {}
-    with Sandbox(KIT_ROOT, limits=LIMITS) as box:
+    with Sandbox(KIT_ROOT, limits=LIMITS) as box, GradingRun(quick_config(), sandbox=box) as run:
         for name in (TRANSPOSED, RANK3):
-            result = grade_submission(build(root, name), sandbox=box, hidden_inputs=hidden)
+            result = run.grade(build(root, name))
             assert result.failure is None and 0 < result.score < FULL, (name, result.failure, result.score)
             scores[name] = result.score
             scores[name, "Q2"] = next(q.score for q in result.questions if q.id == "Q2")
