@@ -22,7 +22,8 @@ into ``submitted/<student>/hw4/``, ``nbgrader autograde hw4``, then
 
     python -m autograder nbgrader-grade COURSE_DIR [--assignment hw4] [--student NAME...]
 
-(from the instructor's kit, with the grading settings of ``python -m autograder grade``), then
+(from the instructor's kit, with the grading settings of ``python -m autograder grade``; that step is
+``autograder.nbgrader_grade``, this module only builds the course), then
 ``nbgrader generate_feedback hw4`` and ``nbgrader export``.  ``--selftest`` runs them all with the
 answer key as a student and reports its score.
 
