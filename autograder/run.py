@@ -103,7 +103,8 @@ class GradingRun:
     isolation, limits, allow_weak : the sandbox's level, ``ResourceLimits`` and whether a level
         running student code as the grader's own user is accepted.
     kit_root : what the sandbox imports the kit from (Gradescope: its unpacked bundle).
-    deadline : ``time.monotonic()`` by which every grading must end (Gradescope's time limit).
+    deadline : ``time.monotonic()`` by which every submission's grading must end (Gradescope's
+        time limit; the canary is not held to it).
     key : the answer-key submission the canary grades (default: written now).
     sandbox : an existing Sandbox to grade in (not closed by the run; tests and tools only).
 
@@ -189,8 +190,10 @@ class GradingRun:
             box = self._take_sandbox()
             try:
                 self.canaries += 1
-                self.canary_report = canary.check(lambda path, **kw: self._grade_in(box, Path(path), **kw), box,
-                                                  key=self.key)
+                # The key gets the full budget: the deadline is the submission's (on Gradescope a
+                # short time limit must end the student's session, not fail the canary).
+                self.canary_report = canary.check(
+                    lambda path, **kw: self._grade_in(box, Path(path), deadline=None, **kw), box, key=self.key)
             finally:
                 self._give_back(box)
         except BaseException:
@@ -233,7 +236,7 @@ class GradingRun:
         self.make_inputs()
         box = self._take_sandbox()
         try:
-            return self._grade_in(box, Path(path), student_id=student_id, staff=staff)
+            return self._grade_in(box, Path(path), student_id=student_id, staff=staff, deadline=self.deadline)
         finally:
             self._give_back(box)
 
@@ -247,19 +250,18 @@ class GradingRun:
                                        execution_time=execution_time,
                                        configuration={**self.record, "isolation": self.level, "draw": None})
 
-    def _grade_in(self, box: Sandbox, path: Path, *, student_id: str | None = None,
+    def _grade_in(self, box: Sandbox, path: Path, *, deadline: float | None, student_id: str | None = None,
                   staff: dict | None = None) -> SubmissionResult:
         staff = staff if staff is not None else {}
         staff.setdefault("log", [])
         path = path.resolve()
         limits = box.limits
-        budget = budget_of(self.hidden, limits, self.deadline)
-        self.timing.setdefault("session_budget", round(budget, 1))
+        budget = budget_of(self.hidden, limits, deadline)
         options = ["--grading-config", str(self._cache / "config.json"), "--hidden-cache", str(self._cache),
                    "--sandbox-spec", str(self._spec(box)), "--stamp", str(self._cache / "stamp.json"),
                    f"--student-id={student_id or path.name}", "--budget", repr(budget)]
         result, got = run_session(self.pool, path, folder=self._cache, options=options,
-                                  timeout=backstop_of(self.hidden, limits, self.deadline),
+                                  timeout=backstop_of(self.hidden, limits, deadline),
                                   extra_tests=self.extra_tests)
         staff["log"] += list(got.pop("log", []))
         staff.update(got)
