@@ -252,14 +252,14 @@ def _run(run: GradingRun, paths, names, out: Path, *, jobs, resume, progress, on
         # The result comes finished and stamped by the run: written as it is, with the pictures of
         # the public data it carries (feedback.html and figures/).
         level = (result.configuration or {}).get("isolation")
+        figures = figures_of(result.pictures)  # checked (and drawn if need be) outside the lock
         folder = out / name
         with write_lock:
             if cancel.is_set():
                 if not sig["setup"]:  # (in the set-up, nothing was started: the journal stays as found)
                     journal.clear(name)
                 return None  # graded (or broken) while being cancelled: nothing recorded, no strike
-            write_outputs(folder, result, state_of(result, path, digest, staff, poison=poison),
-                          figures_of(result.pictures))
+            write_outputs(folder, result, state_of(result, path, digest, staff, poison=poison), figures)
             journal.clear(name)
         return BatchRecord(name, path, folder, result.score, {q.id: q.score for q in result.questions},
                            result.failure, False, time.monotonic() - start, key, level, **staff_of(staff))
