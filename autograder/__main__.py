@@ -238,7 +238,7 @@ COMMANDS = {
                           register="add_cli"),
     "nbgrader": Command("autograder.nbgrader_course", help="build an nbgrader course graded by the hidden checks",
                         register="add_cli"),
-    "nbgrader-grade": Command("autograder.nbgrader_course", register="add_grade_cli", needs=("nbgrader",),
+    "nbgrader-grade": Command("autograder.nbgrader_grade", register="add_grade_cli", needs=("nbgrader",),
                               install="pip install 'nbgrader>=0.9.6,<0.10'",
                               help="score an nbgrader course's submissions with the kit's grader (after nbgrader "
                                    "autograde)"),

@@ -1,8 +1,8 @@
 """The canary: before a batch grades anyone, the answer key is graded in the batch's own sandbox.
 
 Every channel (``python -m autograder grade``, Gradescope's ``run_autograder``, the nbgrader
-course) calls :func:`check` once, with the Sandbox and the hidden inputs it is about to grade
-with.  The answer key (``autograder.key``) must get full marks on every check there; if it does
+course) grades through one ``autograder.run.GradingRun``, which calls :func:`check` once, with
+its own grading function and the Sandbox it is about to grade with.  The answer key (``autograder.key``) must get full marks on every check there; if it does
 not, the environment is broken for everyone (the sandbox's user cannot read the Python
 environment, a package is missing, the machine is too slow for the limits...) and
 :class:`CanaryFailed` is raised with what went wrong and how to fix it, so nothing is graded
@@ -16,11 +16,10 @@ import os
 import re
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .grade import grade_submission
 from .key import write_key_submission
 from .results import SubmissionResult
 from .sandbox import Sandbox, leftovers
@@ -60,16 +59,15 @@ class CanaryReport:
     isolation: dict
 
 
-def check(sandbox: Sandbox, hidden_inputs, *, extra_tests: Sequence[str | os.PathLike] = (),
+def check(grade: Callable[..., SubmissionResult], sandbox: Sandbox, *,
           key: str | os.PathLike | None = None) -> CanaryReport:
-    """Grade the answer key in ``sandbox`` with ``hidden_inputs`` (and ``extra_tests``); it must
-    get every point of every check.
+    """Grade the answer key with ``grade`` in ``sandbox``; it must get every point of every check.
 
     Parameters
     ----------
-    sandbox : the Sandbox the batch grades with (the very one, or one made the same way).
-    hidden_inputs : the batch's ``HiddenInputs`` (same configuration, same secret).
-    extra_tests : the batch's extra hidden checks (an instructor's folder), run on the key too.
+    grade : ``grade(path, student_id=..., staff=...) -> SubmissionResult``, the run's own grading
+        in ``sandbox`` (same configuration, hidden inputs and extra tests as every submission).
+    sandbox : the Sandbox ``grade`` grades in (asked what it can import when the key failed).
     key : the answer-key submission (folder or .zip); default: written now by
         ``autograder.key.write_key_submission`` into a private temporary folder (where the kit's
         notebooks/key or kit/ and solutions/ exist; a Gradescope bundle must ship the key).
@@ -95,8 +93,7 @@ def check(sandbox: Sandbox, hidden_inputs, *, extra_tests: Sequence[str | os.Pat
             raise CanaryFailed(f"canary: expected the answer-key submission at {key}, found nothing")
         staff: dict = {"log": []}
         try:
-            result = grade_submission(key, sandbox=sandbox, hidden_inputs=hidden_inputs, student_id=CANARY_ID,
-                                      staff=staff, extra_tests=extra_tests)
+            result = grade(key, student_id=CANARY_ID, staff=staff)
         except Exception as exc:  # noqa: BLE001 - the grading process itself broke
             raise CanaryFailed(_message(sandbox, [f"grading it broke: {_tail(str(exc))}"], staff)) from exc
         lost = _lost(result)

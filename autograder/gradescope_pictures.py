@@ -70,8 +70,8 @@ def picture_tests(data: dict, result: SubmissionResult, figures: Mapping) -> lis
 
 
 def add_pictures(data: dict, result: SubmissionResult, raw) -> dict:
-    """``data`` (results.json's dict) with the picture tests of ``raw`` (``grade_submission``'s
-    ``pictures`` record: decoded, checked and drawn here) inserted after each question's tests.
+    """``data`` (results.json's dict) with the picture tests of ``raw`` (the picture step's record a
+    result of the grading run carries, ``SubmissionResult.pictures``: decoded, checked and drawn here) inserted after each question's tests.
     Never raises: a failure of this step is printed for staff (Gradescope's stdout) and the
     results stay as they were."""
     if not raw or result.failure:

@@ -12,10 +12,9 @@ import zipfile
 from pathlib import Path
 
 from core.manifest import NOTEBOOKS
+from core.paths import KIT_ROOT
 
 __all__ = ["write_key_submission"]
-
-KIT_ROOT = Path(__file__).resolve().parents[1]
 
 
 def write_key_submission(out: str | os.PathLike, *, zip_it: bool = True) -> Path:

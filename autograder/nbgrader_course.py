@@ -22,7 +22,8 @@ into ``submitted/<student>/hw4/``, ``nbgrader autograde hw4``, then
 
     python -m autograder nbgrader-grade COURSE_DIR [--assignment hw4] [--student NAME...]
 
-(from the instructor's kit, with the grading settings of ``python -m autograder grade``), then
+(from the instructor's kit, with the grading settings of ``python -m autograder grade``; that step is
+``autograder.nbgrader_grade``, this module only builds the course), then
 ``nbgrader generate_feedback hw4`` and ``nbgrader export``.  ``--selftest`` runs them all with the
 answer key as a student and reports its score.
 
@@ -32,7 +33,7 @@ The cell holds no grading code: between nbgrader's ``BEGIN/END HIDDEN TESTS`` ma
 literal ``0.0``, so ``nbgrader autograde`` records 0 points for it whatever the kernel does (or full
 marks only if the kernel fakes its output: either way the next step overwrites it).
 ``nbgrader-grade`` (:func:`grade_course`), a separate process of the instructor's kit started
-after autograde, grades each student's submitted folder with ``grade_submission`` (the same code
+after autograde, grades each student's submitted folder with one ``GradingRun`` (the same code
 as ``python -m autograder grade`` and Gradescope; student code runs in the sandbox, the course
 folder hidden from it) and writes the points into the gradebook through nbgrader's own API
 (``nbgrader.api.Gradebook``: the ``Grade`` of each hidden-check cell gets ``auto_score``, or
@@ -50,7 +51,6 @@ autograde`` on untrusted submissions on a machine or container that holds nothin
 from __future__ import annotations
 
 import argparse
-import contextlib
 import datetime as _dt
 import os
 import shutil
@@ -61,11 +61,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from core.manifest import NOTEBOOKS, QUESTIONS, Question
-
+from core.paths import KIT_ROOT
 from core.shipping import SANDBOX_PACKAGES
-from core.untrusted import for_terminal
 
-from .gradescope import KIT_ROOT, _package_files, data_files, hideable
+from .gradescope import _package_files, data_files
+# Grading in the course is nbgrader_grade's; re-exported, as the course's own workflow (selftest) uses it.
+from .nbgrader_grade import (ASSIGNMENT, COURSE_ID, HIDDEN_PREFIX, _grade_cli, _grading_config, _nbgrader,
+                             _question_of_grade_id, add_grade_cli, autograded_scores, grade_course, gradebook,
+                             kit_scores, tools_path)
 
 if TYPE_CHECKING:
     import nbformat
@@ -83,14 +86,12 @@ __all__ = [
     "grade_course",
     "kit_scores",
     "run_nbgrader",
+    "gradebook",
     "selftest",
     "submit_key",
     "submit_release",
 ]
 
-ASSIGNMENT = "hw4"
-COURSE_ID = "hw4"
-HIDDEN_PREFIX = "hidden_"
 SOURCE_DIR = Path("notebooks") / "nbgrader" / "source" / ASSIGNMENT
 _BEGIN_HIDDEN, _END_HIDDEN = "### BEGIN HIDDEN TESTS", "### END HIDDEN TESTS"
 _BEGIN_SOLUTION, _END_SOLUTION = "### BEGIN SOLUTION", "### END SOLUTION"
@@ -103,19 +104,8 @@ _PLACEHOLDER = "0.0"
 # cells
 
 
-def _nbgrader(cell) -> dict:
-    return cell.get("metadata", {}).get("nbgrader", {})
-
-
 def _grade_id_of(qid: str) -> str:
     return HIDDEN_PREFIX + qid.replace(".", "_")
-
-
-def _question_of_grade_id(grade_id: str) -> Question | None:
-    if not grade_id.startswith(HIDDEN_PREFIX):
-        return None
-    wanted = grade_id[len(HIDDEN_PREFIX):]
-    return next((q for q in QUESTIONS if q.id.replace(".", "_") == wanted and not q.by_hand), None)
 
 
 def _hidden_cell(q: Question, stem: str) -> nbformat.NotebookNode:
@@ -180,152 +170,6 @@ def add_hidden_checks(nb: nbformat.NotebookNode, stem: str) -> nbformat.Notebook
 
 # ------------------------------------------------------------------------------------------------
 # scoring with the kit's grader, outside nbgrader
-
-
-def _describe(q) -> str:
-    credit = " (extra credit)" if q.extra_credit else ""
-    lines = [f"{q.id} {q.title}: {q.score:g} / {q.max_score:g} points{credit}"]
-    lines += [f"- {n}" for n in q.notes]
-    hidden = [t for t in q.tests if t.visibility == "hidden"]
-    for t in q.tests:
-        if t.visibility != "hidden":
-            verdict = "passed" if t.passed else "failed"
-            lines.append(f"- {t.name}: {verdict} ({t.score:g} / {t.max_score:g})" + (f". {t.feedback}" if t.feedback else ""))
-    if hidden:
-        lines.append(f"- {len(hidden)} hidden check(s): {sum(t.score for t in hidden):g} / "
-                     f"{sum(t.max_score for t in hidden):g}")
-    return "\n".join(lines)
-
-
-def _verdicts(result) -> dict[str, tuple[float, str]]:
-    """qid -> (points, feedback) of every autograded question of ``result`` (zero with the reason
-    for a question that was not graded)."""
-    by_id = {q.id: q for q in result.questions}
-    out = {}
-    for q in QUESTIONS:
-        if q.by_hand:
-            continue
-        if result.failure or q.id not in by_id:
-            why = result.failure or "not graded"
-            out[q.id] = (0.0, f"{q.id} {q.title}: 0 / {q.points} points ({why})")
-        else:
-            out[q.id] = (float(by_id[q.id].score), _describe(by_id[q.id]))
-    return out
-
-
-def _students(course: Path, assignment: str, students) -> list[str]:
-    found = sorted(p.parent.name for p in (course / "submitted").glob(f"*/{assignment}") if p.is_dir())
-    if students is None:
-        return found
-    missing = [s for s in students if s not in found]
-    if missing:
-        raise ValueError(f"students: expected names with a folder submitted/<name>/{assignment}, got {missing}")
-    return list(students)
-
-
-def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict) -> None:
-    """The kit's feedback as the output of each hidden-check cell of the autograded notebooks."""
-    import nbformat
-
-    for path in sorted((course / "autograded" / student / assignment).glob("*.ipynb")):
-        nb = nbformat.read(path, as_version=4)
-        changed = False
-        for cell in nb.cells:
-            q = _question_of_grade_id(_nbgrader(cell).get("grade_id", ""))
-            if q is not None and cell.cell_type == "code":
-                # A stream output is shown as a terminal would (nbconvert turns ANSI escapes into markup).
-                text = for_terminal(verdicts[q.id][1])
-                cell.outputs = [nbformat.v4.new_output("stream", name="stdout", text=text + "\n")]
-                changed = True
-        if changed:
-            nbformat.write(nb, path)
-
-
-def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=None, config=None,
-                 isolation: str = "auto", progress=None, log=print) -> dict:
-    """Grade every submission of ``assignment`` with the kit's grader and write the points into
-    the course's gradebook; run after ``nbgrader autograde``.  Returns student -> SubmissionResult.
-
-    Each ``submitted/<student>/<assignment>`` folder is graded with ``grade_submission`` (the
-    instructor's kit, never the course's files; student code in the sandbox with the course
-    folder hidden).  Then, through ``nbgrader.api.Gradebook``, every hidden-check cell's ``Grade``
-    gets the question's points as ``auto_score`` (extra credit: ``auto_score`` 0 and the points as
-    ``extra_credit``), replacing whatever autograde recorded, and the question's feedback becomes
-    that cell's output in ``autograded/`` (what ``generate_feedback`` shows).
-
-    First the canary (``autograder.canary.check``): the answer key, graded in the very sandbox and
-    with the same hidden inputs, must get every point, or no student is graded.
-
-    Parameters
-    ----------
-    course : the nbgrader course folder (with nbgrader_config.py and gradebook.db).
-    students : names to grade (default: every submitted folder of ``assignment``).
-    config : ``GradingConfig`` (default: ``load_config()``, as ``python -m autograder grade``).
-    isolation : the sandbox level ("auto": the strongest that works here).
-    progress : optional callable(student, result) called after each student.
-    log : callable(str) given one line when the canary passed (default ``print``; None: silent).
-
-    Raises
-    ------
-    ValueError
-        When ``course`` has no gradebook or a named student has no submission, or a student
-        graded here was not autograded by nbgrader first (no submission in the gradebook).
-    CanaryFailed (a ValueError)
-        When the answer key did not get full marks here; its message says why and how to fix
-        it, and the gradebook is left untouched.
-    """
-    from nbgrader.api import MissingEntry
-
-    from . import canary
-    from .config import load_config
-    from .grade import grade_submission
-    from .hidden.inputs import build_hidden_inputs
-    from .sandbox import Sandbox
-
-    course = Path(course).resolve()
-    db = course / "gradebook.db"
-    if not (course / "nbgrader_config.py").is_file() or not db.is_file():
-        raise ValueError(f"course: expected an nbgrader course with gradebook.db (run nbgrader autograde first), got {course}")
-    names = _students(course, assignment, students)
-    config = config if config is not None else load_config()
-    hidden = build_hidden_inputs(config)
-    results = {}
-    with gradebook(db) as gb:
-        for student in names:
-            try:
-                gb.find_submission(assignment, student)
-            except MissingEntry:
-                raise ValueError(f"students: {student} has no autograded submission of {assignment} in "
-                                 f"the gradebook; run nbgrader autograde first") from None
-    with Sandbox(KIT_ROOT, hidden=hideable([course, config.source, config.official_dir()]), isolation=isolation) as box:
-        report = canary.check(box, hidden)  # raises CanaryFailed: nothing graded, nothing written
-        if log is not None:
-            log(f"canary: the answer key got {report.score:g} / {report.max_score:g} in this sandbox "
-                f"({box.isolation.summary()}) in {report.seconds:.1f} s; grading {len(names)} submissions")
-        for student in names:
-            folder = course / "submitted" / student / assignment
-            result = grade_submission(folder, sandbox=box, hidden_inputs=hidden, student_id=student)
-            results[student] = result
-            verdicts = _verdicts(result)
-            with gradebook(db) as gb:
-                submission = gb.find_submission(assignment, student)
-                for notebook in submission.notebooks:
-                    for grade in notebook.grades:
-                        q = _question_of_grade_id(grade.name)
-                        if q is None:
-                            continue
-                        score = verdicts[q.id][0]
-                        if q.extra_credit:
-                            grade.auto_score, grade.extra_credit = 0.0, score
-                        else:
-                            grade.auto_score, grade.extra_credit = min(score, float(grade.max_score)), None
-                        grade.manual_score = None
-                        grade.needs_manual_grade = False
-                gb.db.commit()
-            _write_feedback(course, assignment, student, verdicts)
-            if progress is not None:
-                progress(student, result)
-    return results
 
 
 # ------------------------------------------------------------------------------------------------
@@ -440,40 +284,6 @@ def build_course(out: str | Path, *, kit_root: str | Path = KIT_ROOT, stems=None
 # running nbgrader, submissions, scores
 
 
-def tools_path() -> str:
-    """PATH with the running environment's own scripts folder first.
-
-    nbgrader's Gradebook runs the ``alembic`` command it finds on PATH; a Python started as
-    ``.venv/bin/python`` without activating the environment has that command beside it, not on
-    PATH, so the run would depend on the shell it came from.
-    """
-    here = str(Path(sys.executable).parent)   # not resolved: a venv's python is a symlink out of it
-    old = os.environ.get("PATH", "")
-    return old if here in old.split(os.pathsep) else here + os.pathsep + old
-
-
-@contextlib.contextmanager
-def _own_tools():
-    old = os.environ.get("PATH")
-    os.environ["PATH"] = tools_path()
-    try:
-        yield
-    finally:
-        if old is None:
-            os.environ.pop("PATH", None)
-        else:
-            os.environ["PATH"] = old
-
-
-@contextlib.contextmanager
-def gradebook(db: str | Path):
-    """nbgrader's Gradebook of the sqlite file ``db`` for this course, opened with this environment's tools."""
-    from nbgrader.api import Gradebook
-
-    with _own_tools(), Gradebook(f"sqlite:///{db}", COURSE_ID) as gb:
-        yield gb
-
-
 def run_nbgrader(course: str | Path, *args: str, timeout: float = 1800) -> subprocess.CompletedProcess:
     """``nbgrader <args>`` in the course folder with this Python; its output (stdout+stderr).
 
@@ -544,31 +354,6 @@ def submit_key(course: str | Path, student: str) -> Path:
     return folder
 
 
-def autograded_scores(course: str | Path, student: str) -> dict[str, tuple[float, float]]:
-    """``grade_id -> (score, max_score)`` of the autograded code cells of ``student``'s hw4, as
-    nbgrader counts them (``score`` includes the cell's extra credit)."""
-    course = Path(course)
-    out = {}
-    with gradebook(course / "gradebook.db") as gb:
-        submission = gb.find_submission(ASSIGNMENT, student)
-        for notebook in submission.notebooks:
-            for grade in notebook.grades:
-                if grade.cell_type == "code":
-                    out[grade.name] = (float(grade.score or 0.0), float(grade.max_score))
-    return out
-
-
-def kit_scores(course: str | Path, student: str) -> dict[str, float]:
-    """question id -> the points ``student``'s hidden-check cells hold in the gradebook (extra
-    credit included), for the questions of the course's notebooks."""
-    out = {}
-    for grade_id, (score, _) in autograded_scores(course, student).items():
-        q = _question_of_grade_id(grade_id)
-        if q is not None:
-            out[q.id] = score
-    return out
-
-
 def selftest(course: str | Path, student: str = "answer-key", *, config=None) -> tuple[float, float]:
     """Run the whole workflow in ``course`` with the answer key as ``student``.
 
@@ -588,16 +373,6 @@ def selftest(course: str | Path, student: str = "answer-key", *, config=None) ->
     return sum(scores.values()), float(total)
 
 
-def _grading_config(args):
-    from .config import ENV_CONFIG, ENV_SECRET, load_config
-
-    config = load_config(args.config)
-    if config.is_dev and not args.allow_dev_secret:
-        raise ValueError(f"secret: expected the course's own grading secret (set {ENV_SECRET}, or {ENV_CONFIG} "
-                         f"or --config to a config file), got the public development secret")
-    return config
-
-
 def _cli(args) -> int:
     course = build_course(args.out, stems=args.notebooks, force=args.force)
     print(f"wrote the nbgrader course {course}")
@@ -607,40 +382,6 @@ def _cli(args) -> int:
         return 0 if abs(score - total) < 1e-9 else 1
     print(f"next: cd {course} && nbgrader generate_assignment {ASSIGNMENT} --force  (see README.md)")
     return 0
-
-
-def _grade_cli(args) -> int:
-    config = _grading_config(args)
-
-    def report(student, result):
-        why = f" (not graded: {result.failure})" if result.failure else ""
-        print(for_terminal(f"{student}: {result.score:g} points (base {result.max_score:g}, extra credit on top){why}"))
-
-    results = grade_course(args.course, assignment=args.assignment, students=args.student, config=config,
-                           isolation=args.isolation, progress=None if args.quiet else report)
-    print(f"{len(results)} submissions scored into {Path(args.course) / 'gradebook.db'}; "
-          f"next: nbgrader generate_feedback {args.assignment} && nbgrader export")
-    return 0
-
-
-def add_grade_cli(subparsers) -> None:
-    """Register ``python -m autograder nbgrader-grade`` (once, whoever asks first)."""
-    if "nbgrader-grade" in subparsers.choices:
-        return
-    p = subparsers.add_parser(
-        "nbgrader-grade", help="score an nbgrader course's submissions with the kit's grader (after nbgrader autograde)",
-        description="Grade every submitted/<student>/<assignment> of an nbgrader course with the kit's sandboxed "
-                    "grader and write the hidden checks' points into its gradebook (run after nbgrader autograde, "
-                    "before generate_feedback and export).")
-    p.add_argument("course", help="the course folder (with nbgrader_config.py and gradebook.db)")
-    p.add_argument("--assignment", default=ASSIGNMENT, help=f"the assignment (default {ASSIGNMENT})")
-    p.add_argument("--student", nargs="+", default=None, metavar="NAME", help="only these students")
-    p.add_argument("--config", default=None, help="grader settings (JSON; default: $HW4_GRADER_CONFIG)")
-    p.add_argument("--allow-dev-secret", action="store_true", help="grade with the public development secret (trying out only)")
-    p.add_argument("--isolation", default="auto", choices=["auto", "namespaces", "user-namespaces", "basic"],
-                   help="sandbox level (default: the strongest that works here)")
-    p.add_argument("--quiet", action="store_true", help="no line per student")
-    p.set_defaults(func=_grade_cli)
 
 
 def add_cli(subparsers) -> None:

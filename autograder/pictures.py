@@ -15,9 +15,11 @@ Never scored, never on hidden scenes.  The steps, each in the process allowed to
    student code; a batch's ``--jobs`` workers draw in parallel): the outputs decoded again and
    drawn (``starter.checks.pictures.draw``, trusted, calls no student code) -> ``{"picture":
    {title, alt, png (base64), measures}}`` or ``{"error": ...}``, for the worker's results file.
-3. ``figures_of(raw)``, in the grader: each record checked again (known questions, a PNG of at
-   most ``MAX_PNG`` bytes, bounded texts, finite measures; ``outputs`` still to draw are drawn
-   here) -> question -> ``Picture``, or the sentence "figure not drawn: ...".
+3. ``figures_of(raw)``, in the grader, on the record a result of the grading run carries
+   (``SubmissionResult.pictures``, with ``GradingRun(..., pictures=True)``): each record checked
+   again (known questions, a PNG of at most ``MAX_PNG`` bytes, bounded texts, finite measures;
+   ``outputs`` still to draw are drawn here) -> question -> ``Picture``, or the sentence "figure
+   not drawn: ...".
 
 Every sentence may quote the student (an exception's message): its writers escape it
 (``core.untrusted``).

@@ -192,7 +192,8 @@ def regrade(old: str | os.PathLike, new: str | os.PathLike, paths=None, **grade_
 
     Raises ValueError when ``old`` holds no graded submission or ``new`` is ``old``.
     """
-    from .batch import folder_configuration, grade_batch
+    from .batch import grade_batch
+    from .journal import folder_configuration
 
     old, new = Path(old).resolve(), Path(new).resolve()
     if old == new:
@@ -223,7 +224,8 @@ def accept(new: str | os.PathLike, into: str | os.PathLike) -> Path:
 
     Raises ValueError when ``new`` is not a finished regrade of ``into``.
     """
-    from .batch import JOURNAL, _lock
+    from .journal import JOURNAL
+    from .journal import lock as _lock
 
     new, into = Path(new).resolve(), Path(into).resolve()
     try:

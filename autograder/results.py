@@ -31,8 +31,8 @@ import math
 import os
 import re
 import tempfile
-from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from core.manifest import QUESTIONS, question
@@ -171,7 +171,14 @@ class SubmissionResult:
     questions: in manifest order; student_id: for the gradebook; isolation: the sandbox's
     ``Isolation.as_dict()``; notes: sentences about the submission as a whole (unreadable
     notebooks, syntax errors); failure: set when grading could not run (then the score is zero);
-    execution_time: seconds.
+    execution_time: seconds; configuration: how it was graded (the grading run's stamp).
+
+    pictures: the record of the unscored picture step when the grading run was asked for it
+    (``GradingRun(..., pictures=True)``), else None: question -> the picture the grading worker
+    drew of the public data, or the sentence why not, as the worker wrote it (read it with
+    ``autograder.pictures.figures_of``, which checks it).  It is no part of the grade: never
+    scored, compared, shown by ``repr`` nor written by ``to_dict`` (the pictures go to
+    feedback.html and figures/, or to Gradescope's picture tests).
     """
 
     questions: tuple[QuestionResult, ...] = ()
@@ -181,6 +188,7 @@ class SubmissionResult:
     failure: str | None = None
     execution_time: float | None = None
     configuration: dict | None = None
+    pictures: Mapping | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def failed(cls, reason: str, *, student_id: str | None = None, isolation: dict | None = None,
@@ -213,14 +221,15 @@ class SubmissionResult:
         }
 
     @classmethod
-    def from_dict(cls, data: dict) -> SubmissionResult:
-        """The result written by ``to_dict`` (every test re-validated)."""
+    def from_dict(cls, data: dict, *, pictures: Mapping | None = None) -> SubmissionResult:
+        """The result written by ``to_dict`` (every test re-validated), with the picture step's
+        record ``pictures`` when it ran (written beside the result, never inside it)."""
         questions = tuple(
             QuestionResult(str(q["id"]), str(q["title"]), tuple(TestResult(**t) for t in q["tests"]),
                            bool(q["extra_credit"]), bool(q["by_hand"]), tuple(q["notes"]))
             for q in data["questions"])
         return cls(questions, data.get("student_id"), data.get("isolation"), tuple(data.get("notes", ())),
-                   data.get("failure"), data.get("execution_time"), data.get("configuration"))
+                   data.get("failure"), data.get("execution_time"), data.get("configuration"), pictures)
 
     # -- Gradescope -------------------------------------------------------------------------
 

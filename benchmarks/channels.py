@@ -3,7 +3,7 @@ submission whose every function hangs, in a folder laid out like /autograder, be
 alone at full speed, in one run.  Target: the all-hang submission under 120 s at 0.5 vCPU.
 Each row shows the limits' clock (cpu on Gradescope), the measured CPU share, the wall-clock
 backstop's multiple of a call ("backstop"), the session's wall-clock budget in seconds ("session",
-grown by 1 / share: ``autograder.grade.budget_of``) and the seconds the canary (the bundled answer
+grown by 1 / share: ``autograder.budget.budget_of``) and the seconds the canary (the bundled answer
 key) took before grading.
 
     python benchmarks/channels.py [--vcpu 0.5] [--keep DIR]

@@ -431,14 +431,14 @@ def test_submission_digest_follows_content(tmp_path):
 
 
 def test_a_grader_bug_gives_a_failed_result_and_the_batch_goes_on(tmp_path, monkeypatch, config):
-    from autograder import grade
+    from autograder.run import GradingRun
 
     subs = [corpus.build(n, tmp_path / "subs") for n in ("untouched_student_zero", "invalid_json_q2_loses_Q2")]
 
-    def broken(path, **kw):
+    def broken(run, path, **kw):
         raise RuntimeError("a bug in the grader")
 
-    monkeypatch.setattr(grade, "grade_submission", broken)
+    monkeypatch.setattr(GradingRun, "grade", broken)
     records = grade_batch(subs, tmp_path / "out", config=config, progress=False, limits=LIMITS)
     assert [r.failure is not None for r in records] == [True, True]
     for r in records:

@@ -24,9 +24,7 @@ from pathlib import Path
 import corpus
 import pytest
 
-from autograder import grade as grade_module
-from autograder.grade import grade_submission
-from autograder.hidden.inputs import build_hidden_inputs
+from autograder.run import GradingRun
 from autograder.batch import ConfigurationMismatch, grade_batch
 from autograder.config import configuration_changes, load_config, quick_config
 from autograder.regrade import accept, diff_folders
@@ -84,11 +82,10 @@ def alone(tmp_path_factory) -> dict:
     much Q2 takes off is the hidden checks' business; a batch must record exactly this): the total
     by name, Q2's by (name, "Q2")."""
     root = tmp_path_factory.mktemp("alone")
-    hidden = build_hidden_inputs(quick_config())
     scores = {}
-    with Sandbox(KIT_ROOT, limits=LIMITS) as box:
+    with Sandbox(KIT_ROOT, limits=LIMITS) as box, GradingRun(quick_config(), sandbox=box) as run:
         for name in (TRANSPOSED, RANK3):
-            result = grade_submission(build(root, name), sandbox=box, hidden_inputs=hidden)
+            result = run.grade(build(root, name))
             assert result.failure is None and 0 < result.score < FULL, (name, result.failure, result.score)
             scores[name] = result.score
             scores[name, "Q2"] = next(q.score for q in result.questions if q.id == "Q2")
@@ -199,18 +196,18 @@ LIVE_GRADER = textwrap.dedent('''
 
 DRIVER = textwrap.dedent('''
     import os, signal, sys
-    from autograder import grade
+    from autograder.run import GradingRun
     from autograder.batch import grade_batch
     from autograder.config import load_config
 
-    real = grade.grade_submission
+    real = GradingRun.grade
 
-    def deadly(path, **kw):
+    def deadly(run, path, **kw):
         if kw.get("student_id") == "poison":
             os.kill(os.getpid(), signal.SIGKILL)  # stands for a submission that kills or stops the grader
-        return real(path, **kw)
+        return real(run, path, **kw)
 
-    grade.grade_submission = deadly
+    GradingRun.grade = deadly
     config, out, *subs = sys.argv[1:]
     grade_batch(subs, out, config=load_config(config), progress=False)
 ''')
@@ -294,17 +291,17 @@ def test_resume_regrades_an_internal_error_and_regrade_names_one_student(tmp_pat
     subs = [build(tmp_path, KEY, "a_key"), build(tmp_path, TRANSPOSED, "b_transposed")]
     out = tmp_path / "graded"
     config = quick_config()
-    real = grade_module.grade_submission
+    real = GradingRun.grade
 
-    def broken(path, **kw):
+    def broken(run, path, **kw):
         if kw.get("student_id") == "b_transposed":
             raise RuntimeError("the grading process failed (exit code 3)")
-        return real(path, **kw)
+        return real(run, path, **kw)
 
-    monkeypatch.setattr(grade_module, "grade_submission", broken)
+    monkeypatch.setattr(GradingRun, "grade", broken)
     first = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, limits=LIMITS)}
     assert "internal error" in first["b_transposed"].failure and state(out, "b_transposed")["internal_errors"]
-    monkeypatch.setattr(grade_module, "grade_submission", real)
+    monkeypatch.setattr(GradingRun, "grade", real)
     second = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, limits=LIMITS)}
     assert second["a_key"].skipped and not second["b_transposed"].skipped
     assert second["b_transposed"].failure is None and second["b_transposed"].score == alone[TRANSPOSED]
@@ -480,6 +477,8 @@ def test_ctrl_c_during_set_up_stops_at_once_recording_nothing(tmp_path, config_f
         assert proc.poll() is None, proc.stderr.read()[-2000:]
         assert bool(mine("hidden")) == (phase == "canary"), mine("hidden")
         assert inflight(out) == set() and not list(out.glob("*/grading.json"))  # nothing started yet
+        # Interrupted before the canary ends: its scratch folder (the key) is still there.
+        assert phase != "canary" or mine("canary"), "the canary ended before the signal"
         start = time.monotonic()
         os.kill(proc.pid, signal.SIGINT)
         try:

@@ -1,7 +1,9 @@
 """Same verdicts everywhere: five corpus submissions graded by the CLI (``python -m autograder
 grade``), by Gradescope's ``run_autograder`` in a folder laid out like /autograder, and by the
 nbgrader course (``nbgrader autograde`` then ``python -m autograder nbgrader-grade``) get
-identical per-question scores, each on its own hidden draw, the same draw in every channel.  Slow:
+identical per-question scores, each on its own hidden draw, the same draw in every channel.  All
+three grade through one ``autograder.run.GradingRun``: each result is stamped by it with the same
+configuration key.  Slow:
 about two minutes on two cores (the channels run two at a time).
 """
 
@@ -59,13 +61,15 @@ def cli_scores(setup) -> dict:
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     with open(out / "grades.csv", newline="") as fh:
         rows = {r["student_id"]: r for r in csv.DictReader(fh)}
-    draws = {name: _draw(json.loads((out / name / "results.json").read_text())) for name in FIVE}
+    draws = {name: _stamp(json.loads((out / name / "results.json").read_text())) for name in FIVE}
     return {name: {q: float(rows[name][q]) for q in QIDS} for name in FIVE}, draws
 
 
-def _draw(results_json: dict):
-    """The digest of the hidden draw a results.json says the submission was graded on."""
-    return ((results_json.get("extra_data") or {}).get("configuration") or {}).get("draw")
+def _stamp(results_json: dict) -> tuple:
+    """``(draw, key)``: the digest of the hidden draw a results.json says the submission was graded
+    on, and the key of the configuration the grading run stamped on it."""
+    config = (results_json.get("extra_data") or {}).get("configuration") or {}
+    return config.get("draw"), config.get("key")
 
 
 def gradescope_one(setup, bundle: Path, name: str) -> tuple[dict, str | None]:
@@ -75,7 +79,7 @@ def gradescope_one(setup, bundle: Path, name: str) -> tuple[dict, str | None]:
         shutil.copy2(p, ag / "submission" / p.name)
     data = run_autograder(ag)
     scored = {t["name"].split()[0]: float(t["score"]) for t in data["tests"] if "score" in t}
-    return {q: scored.get(q, 0.0) for q in QIDS}, _draw(data)
+    return {q: scored.get(q, 0.0) for q in QIDS}, _stamp(data)
 
 
 def nbgrader_scores(setup) -> dict:
@@ -91,7 +95,8 @@ def nbgrader_scores(setup) -> dict:
             shutil.copy2(p, target / p.name)
     nc.run_nbgrader(course, "autograde", "hw4", "--force", timeout=3600)
     results = nc.grade_course(course, config=load_config())
-    draws = {name: (results[name].configuration or {}).get("draw") for name in FIVE}
+    draws = {name: ((results[name].configuration or {}).get("draw"), (results[name].configuration or {}).get("key"))
+             for name in FIVE}
     return {name: {q: nc.kit_scores(course, name).get(q, 0.0) for q in QIDS} for name in FIVE}, draws
 
 
@@ -109,9 +114,11 @@ def test_cli_gradescope_and_nbgrader_give_the_same_scores(setup, monkeypatch):
         cli, cli_draws = cli_run.result()
         gs = {name: run.result()[0] for name, run in gs_runs.items()}
         gs_draws = {name: run.result()[1] for name, run in gs_runs.items()}
-    # Each submission is graded on its own hidden draw, the same whichever channel grades it.
-    assert cli_draws == gs_draws == nb_draws and len(set(cli_draws.values())) == len(FIVE), (cli_draws, gs_draws,
-                                                                                            nb_draws)
+    # Each submission is graded on its own hidden draw, the same whichever channel grades it, and
+    # stamped by the channel's grading run with one configuration key (the same settings and tests).
+    assert cli_draws == gs_draws == nb_draws, (cli_draws, gs_draws, nb_draws)
+    assert len({draw for draw, _ in cli_draws.values()}) == len(FIVE)
+    assert len({key for _, key in cli_draws.values()}) == 1 and None not in next(iter(cli_draws.values()))
     # Each channel publishes at its own precision (grades.csv 4 decimals, results.json 6, the
     # gradebook a float): the scores must be the same at the coarsest of them.
     def published(scores):

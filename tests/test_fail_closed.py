@@ -91,20 +91,18 @@ def notebook_submission(folder: Path, cells: dict[str, str]) -> Path:
 # What a channel does: open the sandbox, run the canary, grade; prints JSON of what happened.
 DRIVER = textwrap.dedent("""\
     import json, os, sys
-    from autograder.canary import check
     from autograder.config import quick_config
-    from autograder.grade import grade_submission
-    from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.run import GradingRun
     from autograder.sandbox import Sandbox
 
     subs = sys.argv[2:]
-    hidden = build_hidden_inputs(quick_config())
-    with Sandbox(hidden=[os.path.dirname(p) for p in subs[:1]], allow_weak=sys.argv[1] == "weak") as box:
+    with Sandbox(hidden=[os.path.dirname(p) for p in subs[:1]], allow_weak=sys.argv[1] == "weak") as box, \
+            GradingRun(quick_config(), sandbox=box) as run:
         out = {"isolation": box.isolation.as_dict(), "grader_uid": os.getuid()}
-        report = check(box, hidden)
+        report = run.run_canary()
         out["canary"] = [report.score, report.max_score]
         for path in subs:
-            result = grade_submission(path, sandbox=box, hidden_inputs=hidden)
+            result = run.grade(path)
             out[os.path.basename(path)] = {q.id: q.score for q in result.questions}
     print("RESULT " + json.dumps(out))
 """)
@@ -342,12 +340,11 @@ def test_answer_key_is_written_owner_only(tmp_path):
 
 @pytest.mark.slow
 def test_canary_gives_the_key_full_marks_in_the_strongest_sandbox():
-    from autograder.canary import check
     from autograder.config import quick_config
-    from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.run import GradingRun
     from autograder.sandbox import Sandbox
 
-    with Sandbox(KIT_ROOT) as box:
-        report = check(box, build_hidden_inputs(quick_config()))
+    with Sandbox(KIT_ROOT) as box, GradingRun(quick_config(), sandbox=box) as run:
+        report = run.run_canary()
     assert report.score >= report.max_score > 0 and report.isolation["level"] == box.isolation.level
     assert report.seconds < 30

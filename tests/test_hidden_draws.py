@@ -20,9 +20,8 @@ import nbformat
 import numpy as np
 import pytest
 
-from autograder import canary
 from autograder.config import quick_config
-from autograder.grade import grade_submission
+from autograder.run import GradingRun
 from autograder.hidden import inputs
 from autograder.hidden.scenes import FIXED_LABELS
 from autograder.sandbox import ResourceLimits, Sandbox
@@ -207,10 +206,10 @@ def graded(tmp_path_factory, batch):
     other = corpus.build("transposed_F_loses_Q2", root / "subs")
     zipped = _zip(key, root / "key.zip")
     out = {}
-    with Sandbox(hidden=[root], limits=LIMITS) as box:
-        out["canary"] = canary.check(box, batch)
+    with Sandbox(hidden=[root], limits=LIMITS) as box, GradingRun(batch.config, hidden_inputs=batch, sandbox=box) as run:
+        out["canary"] = run.run_canary()
         for name, path in (("key", key), ("again", key), ("zip", zipped), ("other", other)):
-            out[name] = grade_submission(path, sandbox=box, hidden_inputs=batch, student_id=name)
+            out[name] = run.grade(path, student_id=name)
     out["paths"] = {"key": key, "other": other}
     return out
 
@@ -222,7 +221,8 @@ def _scores(result) -> dict:
 def test_a_regrade_and_a_zip_of_the_same_code_get_the_same_draw_and_scores(graded, batch):
     key, again, zipped = graded["key"], graded["again"], graded["zip"]
     expected = batch.config.draw_digest(inputs.code_salt(load_submission(graded["paths"]["key"])))
-    assert key.configuration == again.configuration == zipped.configuration == {"draw": expected}
+    assert key.configuration == again.configuration == zipped.configuration
+    assert key.configuration["draw"] == expected
     assert _scores(key) == _scores(again) == _scores(zipped)
     assert key.questions and all(t.score >= t.max_score for q in key.questions for t in q.tests)
 
@@ -230,7 +230,7 @@ def test_a_regrade_and_a_zip_of_the_same_code_get_the_same_draw_and_scores(grade
 def test_other_code_gets_another_draw(graded, batch):
     other = graded["other"]
     expected = batch.config.draw_digest(inputs.code_salt(load_submission(graded["paths"]["other"])))
-    assert other.configuration == {"draw": expected} != graded["key"].configuration
+    assert other.configuration["draw"] == expected != graded["key"].configuration["draw"]
     assert other.score < graded["key"].score
 
 

@@ -155,19 +155,28 @@ def test_making_a_sandbox_sweeps_the_temporary_directory():
                 leftovers.release(f, None)
 
 
-# A grader that forks: the child (a test's process pool, say) exits normally, running the atexit
-# hooks it inherited; the parent's hidden folder and grading worker must outlive it.
+# A grader that forks: the child (a test's process pool, say) closes the run it inherited and exits
+# normally, running the atexit hooks it inherited; the parent's hidden folder and grading worker
+# must outlive it (only the process that made a run's folder and workers removes or stops them).
 FORKING_GRADER = textwrap.dedent('''
-    import os, sys
-    from autograder import grade
-    folder = grade._private_folder("hw4-hidden-")
-    grade._warm_worker()
+    import atexit, os, sys
+    from autograder.config import quick_config
+    from autograder.run import GradingRun
+    from autograder.sandbox import leftovers
+    run = GradingRun(quick_config())
+    run._cache, run._cache_fd = leftovers.owned_folder("hw4-hidden-")  # as make_inputs does, without the inputs
+    atexit.register(run._release_cache)
+    folder = run._cache
+    run.pool.warm()
     pid = os.fork()
     if pid == 0:
-        print("child sees", len(grade._idle), "workers", flush=True)
+        run.close()
+        print("child closed its copy", flush=True)
         sys.exit(0)
     os.waitpid(pid, 0)
-    print("folder", folder.is_dir(), "workers", [w.alive() for w in grade._idle], flush=True)
+    print("folder", folder.is_dir(), "workers", [w.alive() for w in run.pool._idle], flush=True)
+    run.close()
+    print("closed", folder.is_dir(), flush=True)
 ''')
 
 
@@ -175,5 +184,6 @@ def test_a_forked_child_leaves_its_parents_folders_and_workers_alone():
     proc = subprocess.run([sys.executable, "-c", FORKING_GRADER], capture_output=True, text=True, timeout=120,
                           env={**os.environ, "PYTHONPATH": str(KIT_ROOT)}, check=False)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert "child sees 0 workers" in proc.stdout, proc.stdout
+    assert "child closed its copy" in proc.stdout, proc.stdout
     assert "folder True workers [True]" in proc.stdout, proc.stdout
+    assert "closed False" in proc.stdout, proc.stdout

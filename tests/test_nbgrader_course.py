@@ -178,15 +178,15 @@ def test_the_canary_runs_before_any_student_and_a_failed_one_refuses(tmp_path, m
     (course / "gradebook.db").write_bytes(b"")
     seen, lines = [], []
 
-    def fake_check(box, hidden, **kw):
-        seen.append((box.isolation.level, hidden.config.time_scale))
+    def fake_check(grade, box, **kw):  # the run's grading function and the sandbox it grades in
+        seen.append(box.isolation.level)
         return canary.CanaryReport(75.0, 75.0, 0.5, box.isolation.as_dict())
 
     monkeypatch.setattr(canary, "check", fake_check)
     assert nc.grade_course(course, config=quick_config(), log=lines.append) == {}
     assert len(seen) == 1 and lines and lines[0].startswith("canary: the answer key got 75 / 75")
 
-    def failing(box, hidden, **kw):
+    def failing(grade, box, **kw):
         raise canary.CanaryFailed("canary: the answer key did not get full marks (on purpose)")
 
     monkeypatch.setattr(canary, "check", failing)

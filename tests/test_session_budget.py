@@ -12,7 +12,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from autograder import grade, gradescope
+from autograder import budget, gradescope
+from autograder import run as run_module
 from autograder.config import quick_config
 from autograder.hidden import inputs
 from autograder.hidden.inputs import HiddenInputs
@@ -28,18 +29,18 @@ def hidden(monkeypatch) -> HiddenInputs:
 
 
 def loading(hidden: HiddenInputs) -> float:
-    return hidden.config.load_timeout * (1 + grade._RESTARTS_BUDGETED)
+    return hidden.config.load_timeout * (1 + budget.RESTARTS_BUDGETED)
 
 
 def test_the_budget_grows_by_one_over_the_measured_share_under_the_cpu_clock(hidden):
-    wall = grade.budget_of(hidden, ResourceLimits())
-    assert wall == grade.budget_of(hidden) == grade.budget_of(hidden, ResourceLimits(clock="cpu", cpu_share=1.0))
+    wall = budget.budget_of(hidden, ResourceLimits())
+    assert wall == budget.budget_of(hidden) == budget.budget_of(hidden, ResourceLimits(clock="cpu", cpu_share=1.0))
     assert wall > hidden.call_seconds() + loading(hidden)
     for share in (0.47, 0.25):
         limits = ResourceLimits(clock="cpu", wall_factor=1.5 / share, cpu_share=share)
-        assert grade.budget_of(hidden, limits) - loading(hidden) == pytest.approx((wall - loading(hidden)) / share)
+        assert budget.budget_of(hidden, limits) - loading(hidden) == pytest.approx((wall - loading(hidden)) / share)
     # The wall clock's limits are wall-clock seconds already: a share changes nothing there.
-    assert grade.budget_of(hidden, ResourceLimits(clock="wall", cpu_share=0.47)) == wall
+    assert budget.budget_of(hidden, ResourceLimits(clock="wall", cpu_share=0.47)) == wall
 
 
 def test_the_share_is_checked():
@@ -61,17 +62,29 @@ def test_grading_gives_the_plugin_and_the_worker_the_grown_budget(hidden, monkey
         def kill(self):   # a run that raised is abandoned with its worker
             pass
 
-    monkeypatch.setattr(grade, "_warm_worker", lambda: None)
-    monkeypatch.setattr(grade, "_take_worker", Recorder)
+    class Pool:  # the run's workers, replaced by the recorder
+        started = 0
+
+        def warm(self):
+            pass
+
+        def take(self):
+            return Recorder()
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(run_module, "WorkerPool", Pool)
     iso = Isolation("basic", None, False, False, False, (), weak=True)
     (tmp_path / "sub").mkdir()
     for share in (1.0, 0.47):
         limits = ResourceLimits(clock="cpu", wall_factor=max(1.5 / share, 2.0), cpu_share=share)
         box = SimpleNamespace(limits=limits, isolation=iso, describe=lambda: {})
-        with pytest.raises(RuntimeError, match="recorded"):
-            grade.grade_submission(tmp_path / "sub", sandbox=box, hidden_inputs=hidden)
+        with pytest.raises(RuntimeError, match="recorded"), \
+                run_module.GradingRun(hidden.config, hidden_inputs=hidden, sandbox=box) as run:
+            run.grade(tmp_path / "sub")
     (full, full_timeout), (half, half_timeout) = asked
-    assert full == pytest.approx(grade.budget_of(hidden)) and half == pytest.approx(grade.budget_of(hidden, limits))
+    assert full == pytest.approx(budget.budget_of(hidden)) and half == pytest.approx(budget.budget_of(hidden, limits))
     assert half - loading(hidden) == pytest.approx((full - loading(hidden)) / 0.47)
     assert half_timeout - half == pytest.approx((full_timeout - full) / 0.47)  # the pytest run's margin too
 

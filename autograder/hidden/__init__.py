@@ -9,5 +9,5 @@ outputs).  ``plugin.py`` holds the fixtures and turns test reports into the resu
 the reference's results), ``inputs.py`` makes and caches them once per batch; ``feedback.py``
 words failed calls and merges feedback lines; ``worker.py`` runs one pytest session after another
 for the grader.  The CLI, Gradescope and the nbgrader course all grade a submission by running
-these tests (``autograder.grade.grade_submission``).
+these tests (``autograder.run.GradingRun``).
 """

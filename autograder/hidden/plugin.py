@@ -18,12 +18,14 @@ A test that passes earns its points (times ``score.fraction`` when given); one t
 error is the grader's: zero with "internal error" for the student and the traceback for staff.
 ``score.record(...)`` lets a test report finished ``TestResult``/``QuestionResult`` objects.
 
-Options used by the grader (``autograder.grade``): ``--hidden-cache`` (the batch's hidden inputs,
+Options used by the grader (``autograder.run``): ``--hidden-cache`` (the run's hidden inputs,
 made once; each submission gets its own draw of them, ``autograder.hidden.inputs.draw``, and its
 result names the draw by a short digest, ``configuration["draw"]``), ``--sandbox-spec`` (the grader's sandbox, not probed again), ``--results`` (the
-``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget``,
-``--pictures`` (after the checks, the unscored picture step of ``test_pictures.py``; its record goes
-into the results file as ``pictures``, for ``autograder.pictures.decode``).
+``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget`` (the
+run's, ``autograder.budget``), ``--stamp`` (the run's configuration record: the result is
+written finished and stamped here, never amended by the grader), ``--pictures`` (after the
+checks, the unscored picture step of ``test_pictures.py``; its record goes into the results file
+as ``pictures``, for ``autograder.pictures.decode``).
 """
 
 from __future__ import annotations
@@ -45,7 +47,6 @@ from .feedback import failure, notes, tidy
 __all__ = ["HIDDEN_DIR", "CheckFailed", "Local", "config_of", "run_here", "LocalStudent", "Score", "Student", "StudentError"]
 
 _OUTPUT_KEPT = 8000
-_RESTARTS_BUDGETED = 3      # crashes or timeouts after which the session's time is still enough
 HIDDEN_DIR = Path(__file__).resolve().parent
 _loaded: dict = {}          # hidden inputs loaded by this process, by (folder, config fingerprint)
 
@@ -240,6 +241,7 @@ def pytest_addoption(parser):
     g.addoption("--results", default=None, help="write the SubmissionResult (JSON) here")
     g.addoption("--student-id", default=None, help="the gradebook name of the submission")
     g.addoption("--budget", type=float, default=None, help="seconds for the whole submission (default: from the checks)")
+    g.addoption("--stamp", default=None, help="JSON of the run's configuration record, stamped on the result")
     g.addoption("--pictures", action="store_true", default=False,
                 help="after the checks, run the unscored picture step on the public data (autograder.pictures)")
 
@@ -355,8 +357,12 @@ def student(request, grading_config, hidden):
         return
     sandbox = request.getfixturevalue("sandbox")
     submission = request.getfixturevalue("submission")
-    budget = request.config.getoption("--budget") or (
-        hidden.call_seconds() + grading_config.load_timeout * (1 + _RESTARTS_BUDGETED) + 30)
+    # The run that started this session gives its budget; by hand, the same definition is used here.
+    budget = request.config.getoption("--budget")
+    if not budget:
+        from autograder.budget import budget_of
+
+        budget = budget_of(hidden, sandbox.limits)
     session = sandbox.session(list(submission.units()), load_timeout=grading_config.load_timeout, budget=budget)
     request.config._hw4["session"] = session
     yield Student(session, grading_config.time_scale)
@@ -447,8 +453,10 @@ def collect_result(config):
     from autograder.results import QuestionResult, SubmissionResult
 
     if config._hw4.get("failure"):
+        isolation = _spec_isolation(config)
         return SubmissionResult.failed(config._hw4["failure"], student_id=config.getoption("--student-id"),
-                                       execution_time=time.monotonic() - config._hw4["started"])
+                                       isolation=isolation, execution_time=time.monotonic() - config._hw4["started"],
+                                       configuration=_stamp(config, isolation, None))
 
     by_q: dict[str, list] = {}
     for qid, tests in config._hw4["results"].values():
@@ -483,10 +491,37 @@ def collect_result(config):
         info = session.info
         isolation = info.isolation.as_dict()
         notes += _load_notes(info.load_errors)
+    isolation = isolation or _spec_isolation(config)
     # Which draw of the hidden scenes was graded, as a short digest only (never a seed or a scene).
     draw = config._hw4.get("draw")
     return SubmissionResult(tuple(questions), config.getoption("--student-id"), isolation, tuple(notes), None,
-                            time.monotonic() - config._hw4["started"], {"draw": draw} if draw else None)
+                            time.monotonic() - config._hw4["started"], _stamp(config, isolation, draw))
+
+
+def _spec_isolation(config) -> dict | None:
+    """The isolation of the grader's sandbox (``--sandbox-spec``), for a result no session ran for."""
+    spec = config.getoption("--sandbox-spec", None)
+    if not spec:
+        return None
+    try:
+        return json.loads(Path(spec).read_text()).get("isolation")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _stamp(config, isolation: dict | None, draw: str | None) -> dict | None:
+    """How this result was graded: the run's record (``--stamp``, ``autograder.config.configuration``)
+    with the sandbox level and the draw's digest; by hand, without a run, the draw only."""
+    path = config.getoption("--stamp", None)
+    record = None
+    if path:
+        try:
+            record = json.loads(Path(path).read_text())
+        except (OSError, ValueError):
+            record = None
+    if not isinstance(record, dict):
+        return {"draw": draw} if draw else None
+    return {**record, "isolation": (isolation or {}).get("level"), "draw": draw}
 
 
 def _own_helpers(config) -> dict[str, str]:

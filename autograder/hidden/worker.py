@@ -6,7 +6,7 @@ Reads one JSON request per line on stdin, ``{"argv": [...], "log": PATH}``, runs
 ``pytest.main(argv)`` (a fresh pytest session each time, in this same process: numpy, the
 judgments and the hidden inputs are imported and loaded once, not once per submission) with its
 output written to ``log``, and answers on file descriptor FD with one JSON line ``{"exit": code}``.
-Ends at the end of stdin.  Started and fed by ``autograder.grade`` (one worker per concurrent
+Ends at the end of stdin.  Started and fed by ``autograder.workers`` (one worker per concurrent
 grading), never by student code: the student's functions run in the sandbox's own processes.
 """
 
