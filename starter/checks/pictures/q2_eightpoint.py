@@ -23,7 +23,7 @@ from .drawing import clip_line, image, line_distances
 from .picture import Picture, figure, fmt, to_picture
 from .public import NO_TRUTH, temple
 
-__all__ = ["FUNCTIONS", "N_DRAWN", "ZOOM_PX", "draw", "run"]
+__all__ = ["FUNCTIONS", "N_DRAWN", "ZOOM_PX", "draw", "drawn_rows", "lines_row", "run"]
 
 FUNCTIONS = ("eightpoint",)
 N_DRAWN = 8
@@ -68,7 +68,7 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
     return out
 
 
-def _drawn_rows(pts1: np.ndarray, n: int) -> np.ndarray:
+def drawn_rows(pts1: np.ndarray, n: int) -> np.ndarray:
     """n rows of pts1 (N, 2) spread over the image: evenly spaced in the order of x (the lines are near vertical)."""
     order = np.argsort(pts1[:, 0] + 1e-3 * pts1[:, 1], kind="stable")
     return order[np.unique(np.linspace(0, len(order) - 1, min(n, len(order))).round().astype(int))]
@@ -97,8 +97,15 @@ def _segments(ax, lines, w, h, **style) -> None:
             ax.plot(*seg, **style)
 
 
-def _panel_row(fig, grid, row, d, label, F, truth_F, h1, p2, zoom):
-    """Row ``row`` of ``grid``: image 2 with the lines (left), then one zoom of ``zoom`` px around each dot."""
+def lines_row(fig, grid, row, d, label, F, truth_F, h1, p2, zoom):
+    """Row ``row`` of ``grid`` (rows 2*row, 2*row + 1 of a 5-column grid): image 2 with the lines (left),
+    then one zoom of ``zoom`` px around each dot (eight zooms).
+
+    ``d.im2`` is image 2 (H, W[, 3]); ``F`` and ``truth_F`` (3, 3, truth may be None) map points of
+    image 1 to lines of image 2; ``h1`` (n, 3) homogeneous points of image 1, ``p2`` (n, 2) their
+    matches in image 2, pixels (x, y).  Returns (the large Axes, the (n,) distances of p2 to F's lines).
+    Also Q3.1's figure's rows.
+    """
     h, w = d.im2.shape[:2]
     big = fig.add_subplot(grid[2 * row:2 * row + 2, 0])
     image(big, d.im2, label)
@@ -163,7 +170,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         dots = "the true matches"
     else:
         p1, p2, truth_F, dots = d.pts1, d.pts2, None, "the given matches (noisy)"
-    rows = _drawn_rows(p1, N_DRAWN)
+    rows = drawn_rows(p1, N_DRAWN)
     h1 = np.column_stack([p1[rows], np.ones(len(rows))])
     fig = figure(size=(11.0, 3.6 * len(drawn)))[0]
     fig.clear()
@@ -171,7 +178,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     measures: dict[str, float] = {"n_lines": float(len(rows))}
     parts = []
     for row, (key, F) in enumerate(drawn.items()):
-        big, dist = _panel_row(fig, grid, row, d, _RUNS[key], F, truth_F, h1, p2[rows], ZOOM_PX)
+        big, dist = lines_row(fig, grid, row, d, _RUNS[key], F, truth_F, h1, p2[rows], ZOOM_PX)
         mean = float(np.mean(dist)) if np.all(np.isfinite(dist)) else float("inf")
         note = f"{_RUNS[key]}: dots {fmt(mean, 'px')} from the lines on average"
         measures[f"{_KEYS[key]}mean_distance_px"] = mean
