@@ -53,9 +53,10 @@ def states(alt: str, value: float) -> bool:
 # ----------------------------------------------------------------------------- the API
 
 def test_questions_and_functions():
-    assert pictures.QUESTIONS == ("Q2", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6")
+    assert pictures.QUESTIONS == ("Q2", "Q3.1", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6")
     assert set(pictures.FUNCTIONS) == set(pictures.QUESTIONS)
     assert pictures.FUNCTIONS["Q2"] == ("eightpoint",)
+    assert pictures.FUNCTIONS["Q3.1"] == ("essentialMatrix",)
 
 
 @pytest.mark.parametrize("outputs, said", [
@@ -158,6 +159,92 @@ def test_q2_uint16_changes_F():
     p = picture("Q2", V.EIGHTPOINT_UINT16)
     assert p.measures["uint16_F_change"] > 0.1
     assert states(p.alt, p.measures["uint16_F_change"])
+
+
+# ----------------------------------------------------------------------------- Q3.1
+
+E_MISSING_K = '''\
+def essentialMatrix(F, K1, K2):
+    """E with camera 2's intrinsics left out."""
+    return F @ K1
+'''
+E_INVERSE_K = '''\
+import numpy as np
+
+
+def essentialMatrix(F, K1, K2):
+    """E with inverted intrinsics (the formula of F from E)."""
+    return np.linalg.inv(K2).T @ F @ np.linalg.inv(K1)
+'''
+E_SAME_K = '''\
+def essentialMatrix(F, K1, K2):
+    """E with camera 2's intrinsics on both sides."""
+    return K2.T @ F @ K2
+'''
+E_TRANSPOSED = '''\
+def essentialMatrix(F, K1, K2):
+    """The transpose of the essential matrix."""
+    return (K2.T @ F @ K1).T
+'''
+
+
+def _e_mistake(E, F, K1, K2) -> list[str]:
+    from judging.mistakes import essential_mistakes
+
+    return [m.code for m in essential_mistakes(E, F, K1, K2)]
+
+
+@slow
+def test_q31_right_lines_pass_through_the_true_matches():
+    p = picture("Q3.1")
+    m = p.measures
+    assert m["mean_distance_px"] < 1e-6 and m["k_differ_mean_distance_px"] < 1e-6
+    assert m["true_F_mean_distance_px"] < 1e-6 and m["lines_in_image"] == m["n_lines"] == 8
+    assert p.png.startswith(b"\x89PNG") and states(p.alt, m["mean_distance_px"])
+
+
+@slow
+@pytest.mark.parametrize("source, code, temple_low, pair_low", [
+    # K1 == K2 on the public temple: swapped or repeated intrinsics give the right E there (nothing to
+    # see), the self-check's pair (K1 != K2) shows them
+    (V.ESSENTIAL_K_SWAPPED, "e_k_order", None, 10.0),
+    (E_SAME_K, "e_same_k", None, 5.0),
+    (E_MISSING_K, "e_missing_k", 1e4, 1e4),
+    (E_INVERSE_K, "e_inverse_k", 1e4, 1e4),
+    (E_TRANSPOSED, "e_transposed", 2.0, 2.0),
+], ids=["e_k_order", "e_same_k", "e_missing_k", "e_inverse_k", "e_transposed"])
+def test_q31_each_mistake_misses_the_matches(source, code, temple_low, pair_low):
+    from starter.checks._scenes import two_view
+
+    ns = program(source)
+    pair = two_view().pair
+    assert _e_mistake(ns["essentialMatrix"](pair.F, pair.K1, pair.K2), pair.F, pair.K1, pair.K2) == [code]
+    p = pictures.draw("Q3.1", pictures.public_outputs("Q3.1", ns))
+    m = p.measures
+    assert m["K1_equals_K2"] == 1.0
+    assert m["k_differ_mean_distance_px"] > pair_low and states(p.alt, m["k_differ_mean_distance_px"])
+    if temple_low is None:
+        assert m["mean_distance_px"] < 1e-6 and "K1 == K2" in p.alt
+    else:
+        assert m["mean_distance_px"] > temple_low and states(p.alt, m["mean_distance_px"])
+
+
+@slow
+def test_q31_far_lines_are_said_to_leave_the_image():
+    p = picture("Q3.1", E_MISSING_K)
+    assert p.measures["lines_in_image"] == 0 and "0 of your 8 lines cross" in p.alt
+
+
+@slow
+def test_q31_the_drawn_lines_are_the_implied_F(monkeypatch):
+    """The artists' own data: the lines drawn for a transposed E miss their dots by what is measured."""
+    from starter.checks.pictures import q3_essential
+
+    figures = _captured(monkeypatch, q3_essential)
+    p = picture("Q3.1", E_TRANSPOSED)
+    d = _dots_to_drawn_lines(figures[-1])
+    assert len(d) == 8 and d.max() > 5
+    assert np.mean(d) == pytest.approx(p.measures["mean_distance_px"], rel=1e-6)
 
 
 # ----------------------------------------------------------------------------- Q3.2

@@ -1,6 +1,7 @@
 """Figures a student can see: each autograded question drawn from the student's own function on the
 public data (never a hidden scene), beside the truth or the reference, so that the catalogue's
-mistakes (judging.mistakes) show.
+mistakes (judging.mistakes) show.  Q3.1's figure
+also draws the self-check's generated pair, whose intrinsics differ (the public temple's do not).
 
 Two sides, kept apart so that a grader can run the first in its sandbox and the second at home:
 
@@ -24,7 +25,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from . import q2_eightpoint, q3_findM2, q3_triangulate, q4_matches, q4_temple, q5_bundle, q6_multiview
+from . import q2_eightpoint, q3_essential, q3_findM2, q3_triangulate, q4_matches, q4_temple, q5_bundle, q6_multiview
 from .arrays import PictureRunError
 from .picture import Picture
 
@@ -32,10 +33,10 @@ __all__ = ["FUNCTIONS", "QUESTION_OF", "QUESTIONS", "Picture", "PictureRunError"
            "show_after_check"]
 
 _MODULES = {
-    "Q2": q2_eightpoint, "Q3.2": q3_triangulate, "Q3.3": q3_findM2, "Q4.1": q4_matches, "Q4.2": q4_temple,
+    "Q2": q2_eightpoint, "Q3.1": q3_essential, "Q3.2": q3_triangulate, "Q3.3": q3_findM2, "Q4.1": q4_matches, "Q4.2": q4_temple,
     "Q5": q5_bundle, "Q6": q6_multiview,
 }
-QUESTIONS: tuple[str, ...] = ("Q2", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6")
+QUESTIONS: tuple[str, ...] = ("Q2", "Q3.1", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5", "Q6")
 FUNCTIONS: Mapping[str, tuple[str, ...]] = MappingProxyType({q: _MODULES[q].FUNCTIONS for q in QUESTIONS})
 # The question whose figure follows each function's self-check.
 QUESTION_OF: Mapping[str, str] = MappingProxyType({FUNCTIONS[q][0]: q for q in QUESTIONS})

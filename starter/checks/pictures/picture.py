@@ -19,7 +19,7 @@ __all__ = ["Picture", "figure", "fmt", "to_picture"]
 class Picture:
     """One feedback figure.
 
-    question : "Q2", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5" or "Q6".
+    question : "Q2", "Q3.1", "Q3.2", "Q3.3", "Q4.1", "Q4.2", "Q5" or "Q6".
     title : one line naming what is drawn.
     png : the figure, PNG bytes.
     alt : its text equivalent: what is drawn and the numbers measured on it.
