@@ -189,6 +189,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         if key == "F_uint16":
             measures["uint16_F_change"] = _change(F, Fs["F"])
             note += f"; differs from the F of float points by {measures['uint16_F_change']:.3g}"
+        if key == "F" and _s3_over_s2(F, d.M) > 1e-6:
+            note += f"\nfull rank (s3/s2 = {_s3_over_s2(F, d.M):.2g}): its lines do not meet in one epipole"
         big.set_title(note, fontsize=9)
         parts.append(f"{_RUNS[key]}: {fmt(mean, 'px')}")
     if "F_uint16" in Fs and "F_uint16" not in drawn:
