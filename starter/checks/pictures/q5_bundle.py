@@ -113,7 +113,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     ax.set_xlabel(f"calls; start {fmt(start)} (dashed), returned M2 and w {fmt(end)} (dotted),\n"
                   "dots: each call, line: lowest so far", fontsize=7)
     ax = axes[1]
-    image(ax, pub.data.im2, "image 2: reprojections before and after")
+    image(ax, pub.data.im2, f"image 2: reprojections before and after; |t| of M2 x{m['t_ratio']:.3g}"
+          + ("\n(w and t shrunk or grown together: the images cannot show it)"
+             if not 0.5 <= m["t_ratio"] <= 2 else ""))
     C2a, C2b = pr.K2 @ pr.M2_init, pr.K2 @ M2
     with np.errstate(all="ignore"):
         _offsets(ax, pr.p2, project(C2a, pr.w_init), "#9e9e9e", "before")
