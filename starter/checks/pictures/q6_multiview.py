@@ -7,7 +7,8 @@ default data holds detections at exactly that confidence, so using them shows).
 
 Trusted side (:func:`draw`): each view with its detections (filled: confidence above Thres, used by
 the handout's rule; hollow: at or below), the student's P reprojected (crosses, joined to their
-detections) and the true keypoints reprojected (default data).  The student's P is also compared
+detections) and the true keypoints reprojected (default data); a keypoint the handout's rule
+reconstructs and the student's P leaves out is ringed in red.  The student's P is also compared
 with linear triangulations under three rules (confidence > Thres, >= Thres, every detection):
 the rule it is nearest names the threshold the code applied.
 """
@@ -82,7 +83,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     true keypoints, world units; default data only), err_reported, nearest_rule (index in RULES of
     the rule whose triangulation P is nearest, -1 when the rules agree everywhere), gap_<k> (mean
     distance of P to rule k's points where the rules differ, world units; 1e6 for a point one has
-    and the other has not), detections_at_thres (detections whose confidence is exactly Thres).
+    and the other has not), detections_at_thres (detections whose confidence is exactly Thres),
+    n_left_out (keypoints the handout's rule, confidence > Thres in two views or more, reconstructs and
+    P leaves out: ringed in red in every view).
     """
     pub = car(root)
     frame, P_true = pub.frame, pub.P_true
@@ -93,6 +96,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     finite = np.all(np.isfinite(P), axis=1)
     rules = rule_points(C, pts, THRES)
     nearest, gaps = _nearest_rule(P, rules)
+    # keypoints the handout's rule (RULES[0]) reconstructs that P leaves out: ringed in every view
+    left_out = ~finite & np.all(np.isfinite(rules[RULES[0]]), axis=1)
     fig, axes = figure(3, 1, size=(4.6, 4.0))
     dists = []
     for k, (ax, Ck, p) in enumerate(zip(axes, C, pts)):
@@ -107,6 +112,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         ax.plot(p[~above & ~at, 0], p[~above & ~at, 1], "o", ms=6, mfc="none", mec="#1565c0", gid="detection_below")
         ax.plot(p[at, 0], p[at, 1], "s", ms=8, mfc="none", mec="#c2185b", mew=1.5, gid="detection_at_thres")
         ax.plot(q[finite, 0], q[finite, 1], "x", ms=6, color="#ff6f00", gid="yours")
+        ax.plot(p[left_out, 0], p[left_out, 1], "o", ms=16, mfc="none", mec="#e53935", mew=2, gid="left_out")
         if P_true is not None:
             t = project(Ck, P_true)
             ax.plot(t[:, 0], t[:, 1], "+", ms=7, color="#2e7d32", gid="truth")
@@ -121,7 +127,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     d = np.concatenate(dists)
     m = {"mean_reprojection_px": float(np.mean(d)) if len(d) else float("nan"),
          "n_reconstructed": float(finite.sum()), "err_reported": err, "nearest_rule": float(nearest),
-         "detections_at_thres": float(sum(int(np.sum(p[:, 2] == THRES)) for p in pts))}
+         "detections_at_thres": float(sum(int(np.sum(p[:, 2] == THRES)) for p in pts)),
+         "n_left_out": float(left_out.sum())}
     for k, rule in enumerate(RULES):
         m[f"gap_{k}"] = gaps[rule]
     if P_true is not None:
@@ -130,8 +137,11 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
                 else float("nan")
     axes[0].set_xlabel("detections: filled above Thres, square at Thres, hollow below;\nx: your P reprojected; "
                        "+: the true keypoints", fontsize=7)
-    axes[1].set_xlabel(f"your P is nearest to the triangulation of {RULES[nearest]}" if nearest >= 0 else
-                       "the three rules give the same points here", fontsize=8)
+    missing = (f"{int(left_out.sum())} keypoint(s) that {RULES[0]} reconstructs are not in your P (red rings)"
+               if left_out.any() else "")
+    axes[1].set_xlabel((f"your P is nearest to the triangulation of {RULES[nearest]}" if nearest >= 0 else
+                        "the three rules give the same points here") + (f"\n{missing}" if missing else ""),
+                       fontsize=8)
     rule = (f"your P is nearest to a triangulation of the detections with {RULES[nearest]}" if nearest >= 0
             else "the three rules give the same points here")
     alt = (f"The three views of time step {frame.time} with the 12 detections of each (Thres = {THRES:g}; "
@@ -139,5 +149,6 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            f"reconstructed keypoints reprojected: mean distance {fmt(m['mean_reprojection_px'], 'px')} to the "
            f"detections above Thres"
            + (f"; mean 3D distance to the true keypoints {fmt(m['mean_error_3d'])}" if "mean_error_3d" in m else "")
-           + f". Of three rules, {rule}. Your err: {fmt(err)}.")
+           + f". Of three rules, {rule}." + (f" {missing[0].upper()}{missing[1:]}." if missing else "")
+           + f" Your err: {fmt(err)}.")
     return to_picture("Q6", "MultiviewReconstruction: your keypoints in the three views", fig, alt, m)
