@@ -612,3 +612,49 @@ def test_q41_the_drawn_crosses_are_the_matches(monkeypatch):
     right = [a for a in ax.lines if a.get_gid() == "yours_right"][0]
     wrong = [a for a in ax.lines if a.get_gid() == "yours_wrong"][0]
     assert len(right.get_xdata()) == 0 and len(wrong.get_xdata()) == p.measures["n_points"]
+
+
+@slow
+def test_q2_rank3_is_said_on_the_figure(monkeypatch):
+    """A rank-3 F's lines pass through the dots; the panel's own title says it is full rank."""
+    from starter.checks.pictures import q2_eightpoint
+
+    figures = _captured(monkeypatch, q2_eightpoint)
+    picture("Q2", V.EIGHTPOINT_RANK3)
+    assert "full rank" in figures[-1].axes[0].get_title()
+    picture("Q2")
+    assert "full rank" not in figures[-1].axes[0].get_title()
+
+
+@slow
+def test_q5_scale_collapse_is_said_on_the_figure(monkeypatch):
+    """Shrunk w and t reproject as well as the right ones: the image panel's title gives |t|'s factor."""
+    from starter.checks.pictures import q5_bundle
+
+    figures = _captured(monkeypatch, q5_bundle)
+    key = program()["bundleAdjustment"]
+
+    def bundleAdjustment(K1, M1, p1, K2, M2_init, p2, w_init):
+        M2, w, o1, o2 = key(K1, M1, p1, K2, M2_init, p2, w_init)
+        return np.hstack([M2[:, :3], 1e-3 * M2[:, 3:]]), 1e-3 * w, o1, o2
+
+    m = pictures.draw("Q5", pictures.public_outputs("Q5", {"bundleAdjustment": bundleAdjustment})).measures
+    title = figures[-1].axes[1].get_title()
+    assert f"x{m['t_ratio']:.3g}" in title and "shrunk" in title
+    picture("Q5")
+    assert "shrunk" not in figures[-1].axes[1].get_title()
+
+
+@slow
+def test_q6_too_strict_rings_the_keypoints_left_out(monkeypatch):
+    from starter.checks.pictures import q6_multiview
+
+    figures = _captured(monkeypatch, q6_multiview)
+    right = picture("Q6")
+    assert right.measures["n_left_out"] == 0
+    strict = picture("Q6", WRAP_THRESHOLD_TOO_STRICT)
+    n = strict.measures["n_left_out"]
+    assert n == right.measures["n_reconstructed"] - strict.measures["n_reconstructed"] >= 1
+    rings = [a for ax in figures[-1].axes for a in ax.lines if a.get_gid() == "left_out"]
+    assert len(rings) == 3 and all(len(r.get_xdata()) == n for r in rings)
+    assert f"{int(n)} keypoint(s) that confidence > Thres reconstructs are not in your P" in strict.alt
