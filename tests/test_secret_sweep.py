@@ -119,7 +119,8 @@ class Program:
 
 
 def _hidden_files() -> dict[str, tuple[frozenset, frozenset]]:
-    """concept -> (functions its hidden test file calls, questions it grades), read from the files."""
+    """concept -> (functions its hidden test file calls, questions it grades), read from the files
+    that grade a question."""
     from autograder.hidden.plugin import HIDDEN_DIR
 
     out = {}
@@ -127,7 +128,8 @@ def _hidden_files() -> dict[str, tuple[frozenset, frozenset]]:
         text = path.read_text()
         judged = frozenset(n for n in GRADED if f'"{n}"' in text)
         questions = frozenset(re.findall(r'question="(Q[\d.]+)"', text))
-        out[path.stem.removeprefix("test_")] = (judged, questions)
+        if questions:  # a file that grades no question (the unscored picture step) has no verdict to sweep
+            out[path.stem.removeprefix("test_")] = (judged, questions)
     return out
 
 
