@@ -10,7 +10,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["PictureRunError", "call", "float_array", "maybe", "need", "number", "read"]
+__all__ = ["PictureRunError", "call", "float_array", "matrix3", "maybe", "need", "number", "read"]
 
 
 class PictureRunError(RuntimeError):
@@ -24,6 +24,14 @@ def float_array(value, what: str) -> np.ndarray:
     except (TypeError, ValueError) as exc:
         raise PictureRunError(f"{what}: expected numbers, got {type(value).__name__} ({exc})") from None
     return a
+
+
+def matrix3(value, what: str, letter: str) -> np.ndarray:
+    """A returned 3x3 matrix (any shape of 9 numbers) as (3, 3) floats, or PictureRunError naming ``what``."""
+    a = float_array(value, what)
+    if a.size != 9:
+        raise PictureRunError(f"{what}: expected a 3x3 {letter}, got shape {a.shape}")
+    return a.reshape(3, 3)
 
 
 def _check(a, name: str, shape: tuple) -> np.ndarray:

@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from .arrays import PictureRunError, float_array, maybe, need
+from .arrays import call, matrix3, maybe, need
 from .drawing import clip_line, image, line_distances
 from .picture import Picture, figure, fmt, to_picture
 from .public import NO_TRUTH, temple
@@ -34,10 +34,7 @@ _KEYS = {"F": "", "F_refineF_off": "refineF_off_", "F_uint16": "uint16_"}
 
 
 def _F(value, what: str) -> np.ndarray:
-    F = float_array(value, what)
-    if F.size != 9:
-        raise PictureRunError(f"{what}: expected a 3x3 F, got shape {F.shape}")
-    return F.reshape(3, 3)
+    return matrix3(value, what, "F")
 
 
 def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
@@ -47,13 +44,7 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
 
     eightpoint = functions["eightpoint"]
     d = temple(root, truth=False).data
-    try:
-        F = _F(eightpoint(d.pts1.copy(), d.pts2.copy(), d.M), "eightpoint's F")
-    except PictureRunError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - the student's exception, reported by type and first line
-        raise PictureRunError(f"eightpoint raised {type(exc).__name__} on the public data: "
-                              f"{str(exc).splitlines()[0] if str(exc) else ''}") from None
+    F = _F(call(eightpoint, "eightpoint", d.pts1.copy(), d.pts2.copy(), d.M), "eightpoint's F")
     out = {"F": F}
     try:
         value, calls = refineF_switched_off(eightpoint, d.pts1.copy(), d.pts2.copy(), d.M)

@@ -19,7 +19,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from .arrays import PictureRunError, call, float_array, maybe, need
+from .arrays import call, matrix3, maybe, need
 from .drawing import clip_line, line_distances
 from .picture import Picture, figure, fmt, to_picture
 from .public import need_truth, temple
@@ -41,10 +41,7 @@ class _Blank:
 
 
 def _E(value, what: str) -> np.ndarray:
-    E = float_array(value, what)
-    if E.size != 9:
-        raise PictureRunError(f"{what}: expected a 3x3 E, got shape {E.shape}")
-    return E.reshape(3, 3)
+    return matrix3(value, what, "E")
 
 
 def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
