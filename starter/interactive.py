@@ -373,7 +373,7 @@ def _show_image(ax, img: np.ndarray) -> None:
 # the notebook front end
 
 
-def _in_kernel() -> bool:
+def in_kernel() -> bool:
     """True inside a Jupyter kernel (JupyterLab, Notebook, Colab, Voila), where widgets work."""
     try:
         from IPython import get_ipython
@@ -593,8 +593,8 @@ def _run(session: EpipolarSession, points, interactive: bool | None) -> Epipolar
                 warnings.warn(f"point ({record.x1}, {record.y1}): {record.warning}", stacklevel=3)
     if interactive is None:
         interactive = points is None
-    in_kernel = _in_kernel()
-    if interactive and in_kernel:
+    kernel = in_kernel()
+    if interactive and kernel:
         app = EpipolarApp(session)
         session.app = app
         app.display()
@@ -602,7 +602,7 @@ def _run(session: EpipolarSession, points, interactive: bool | None) -> Epipolar
     if interactive:
         warnings.warn("interactive picking needs a Jupyter kernel (JupyterLab, Notebook, Colab); "
                       "pass points=[[x1, y1], ...] for the static figure", stacklevel=3)
-    if in_kernel:
+    if kernel:
         from IPython.display import Image, display
 
         display(Image(data=session.to_png()))

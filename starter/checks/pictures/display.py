@@ -5,19 +5,15 @@ Outside IPython the alt text is printed instead, so a script or a PDF export kee
 
 from __future__ import annotations
 
+from starter.interactive import in_kernel
+
 from .picture import Picture
 
 __all__ = ["in_notebook", "show_picture"]
 
 
-def in_notebook() -> bool:
-    """True inside an IPython kernel (a notebook, Colab), False in a plain Python or a terminal IPython."""
-    try:
-        from IPython import get_ipython
-    except ImportError:
-        return False
-    shell = get_ipython()
-    return shell is not None and getattr(shell, "kernel", None) is not None
+# Inside an IPython kernel (a notebook, Colab): the test the interactive matcher makes too.
+in_notebook = in_kernel
 
 
 def show_picture(picture: Picture) -> None:
