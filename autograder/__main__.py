@@ -104,7 +104,8 @@ def _grade(args) -> int:
 
 def _grade_options(args, config) -> dict:
     return {"jobs": args.jobs, "config": config, "progress": not args.quiet, "isolation": args.isolation,
-            "extra_tests": args.hidden_dir, "allow_weak": args.allow_weak_isolation}
+            "extra_tests": args.hidden_dir, "allow_weak": args.allow_weak_isolation,
+            "pictures": not args.no_pictures}
 
 
 def _grade_run(args) -> int:
@@ -187,6 +188,9 @@ def _common_arguments(p) -> None:
     p.add_argument("--allow-weak-isolation", action="store_true",
                    help="accept a sandbox that runs student code as the grader's own user (refused otherwise)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--no-pictures", action="store_true",
+                   help="feedback without the figures of each student's results on the public data "
+                        "(they cost a few seconds per submission; scores do not change)")
     p.add_argument("--hidden-dir", default=None,
                    help="a folder of more hidden checks (pytest test files) to run with the kit's own")
 

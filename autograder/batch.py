@@ -111,7 +111,7 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
                 on_done: Callable[[BatchRecord], None] | None = None,
                 extra_tests: Sequence[str | os.PathLike] | str | os.PathLike | None = (),
                 regrade: Sequence[str] = (), regrade_all: bool = False, allow_weak: bool = False,
-                canary: bool = True) -> list[BatchRecord]:
+                canary: bool = True, pictures: bool = True) -> list[BatchRecord]:
     """Grade ``paths`` into ``out`` with ``jobs`` workers (threads, each with its own Sandbox).
 
     Returns one BatchRecord per path, in the order given, and writes ``out/grades.csv``,
@@ -123,7 +123,10 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
     ``allow_weak``: accept a sandbox level that runs student code as the grader's own user
     (refused otherwise).  ``canary``: grade the answer key first, in the batch's own sandbox and
     configuration, and grade nothing unless it gets full marks (only the kit's own tests of the
-    batch machinery turn it off).
+    batch machinery turn it off).  ``pictures``: each feedback.html shows the figures of what the
+    student's functions did on the public data (the run's unscored picture step, a few seconds per
+    submission); without, the feedback is text only.  Scores never depend on it, so it is not part
+    of the configuration: a resumed submission keeps the feedback it was graded with.
 
     Raises
     ------
@@ -152,10 +155,9 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
     if isinstance(extra_tests, (str, os.PathLike)):
         extra_tests = [extra_tests]
     # Hidden from student code: the outputs and every folder the submissions live in (the run
-    # adds the configuration's file, the official data and the extra tests).  Each result carries
-    # the pictures of the public data (the run's unscored picture step) for its feedback.html.
+    # adds the configuration's file, the official data and the extra tests).
     run = GradingRun(config, hide=[out, *(p.resolve().parent for p in paths)], extra_tests=extra_tests or (),
-                     isolation=isolation, limits=limits, allow_weak=allow_weak, pictures=True)
+                     isolation=isolation, limits=limits, allow_weak=allow_weak, pictures=pictures)
     folder_lock = lock(out)
     try:
         note = check_folder(out, run.record, regrade_all, time.strftime("%Y%m%d-%H%M%S"))

@@ -67,7 +67,7 @@ def batch(tmp_path_factory, config):
     with zipfile.ZipFile(slip, "w") as zf:
         zf.writestr("../../q2_eightpoint.ipynb", "{}")
     paths += [not_a_zip, slip]
-    records = grade_batch(paths, out, jobs=2, config=config, progress=False, limits=LIMITS)
+    records = grade_batch(paths, out, jobs=2, config=config, progress=False, pictures=False, limits=LIMITS)
     return {"out": out, "paths": paths, "records": {r.name: r for r in records}}
 
 
@@ -209,7 +209,7 @@ def test_q42_feedback_says_which_path_was_graded(batch):
 
 def test_resumed_batch_skips_graded_work_and_regrades_changed_files(batch, config, tmp_path):
     paths = batch["paths"]
-    again = grade_batch(paths, batch["out"], jobs=1, config=config, progress=False, limits=LIMITS)
+    again = grade_batch(paths, batch["out"], jobs=1, config=config, progress=False, pictures=False, limits=LIMITS)
     # A failed result (an unreadable archive) is not finished work: resume grades it again.
     failed = {n for n, r in batch["records"].items() if r.failure}
     assert failed and {r.name for r in again if not r.skipped} == failed
@@ -217,10 +217,10 @@ def test_resumed_batch_skips_graded_work_and_regrades_changed_files(batch, confi
     changed = next(p for p in paths if p.name == "untouched_student_zero")
     nb = changed / "q1_proofs.ipynb"
     nb.write_text(nb.read_text().replace('"cells": [', '"cells": [\n', 1))
-    third = grade_batch(paths, batch["out"], jobs=1, config=config, progress=False, limits=LIMITS)
+    third = grade_batch(paths, batch["out"], jobs=1, config=config, progress=False, pictures=False, limits=LIMITS)
     assert {r.name for r in third if not r.skipped} == {"untouched_student_zero", *failed}
     assert {r.name: r.score for r in third} == {n: r.score for n, r in batch["records"].items()}
-    grade_batch([changed], batch["out"], jobs=1, config=config, progress=False, limits=LIMITS)
+    grade_batch([changed], batch["out"], jobs=1, config=config, progress=False, pictures=False, limits=LIMITS)
     with open(batch["out"] / "grades.csv", newline="") as fh:
         listed = [row[0] for row in csv.reader(fh)][1:]
     assert listed[0] == "untouched_student_zero" and set(listed) == set(batch["records"])
@@ -382,7 +382,7 @@ def test_an_exception_carrying_the_inputs_is_quoted_as_type_place_and_a_short_li
         corpus.replace_function(nbs, function, _DUMPING.format(function=function))
     for stem, nb in nbs.items():
         nbformat.write(nb, folder / f"{stem}.ipynb")
-    record, = grade_batch([folder], tmp_path / "out", config=config, progress=False, limits=LIMITS)
+    record, = grade_batch([folder], tmp_path / "out", config=config, progress=False, pictures=False, limits=LIMITS)
     text = (record.folder / "results.json").read_text() + (record.folder / "feedback.md").read_text()
     assert record.scores["Q2"] == record.scores["Q3.1"] == record.scores["Q3.2"] == 0
     assert "RuntimeError" in text and "dump" in text
@@ -439,7 +439,7 @@ def test_a_grader_bug_gives_a_failed_result_and_the_batch_goes_on(tmp_path, monk
         raise RuntimeError("a bug in the grader")
 
     monkeypatch.setattr(GradingRun, "grade", broken)
-    records = grade_batch(subs, tmp_path / "out", config=config, progress=False, limits=LIMITS)
+    records = grade_batch(subs, tmp_path / "out", config=config, progress=False, pictures=False, limits=LIMITS)
     assert [r.failure is not None for r in records] == [True, True]
     for r in records:
         assert "internal error" in (r.folder / "feedback.md").read_text()

@@ -102,11 +102,11 @@ def build(root: Path, name: str, as_name: str | None = None) -> Path:
     return target
 
 
-def cli(args, config_file: Path, **kw) -> subprocess.Popen:
+def cli(args, config_file: Path, *, pictures: bool = False, **kw) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(KIT_ROOT)}
     env.pop("HW4_COURSE_DATA", None)
     return subprocess.Popen([sys.executable, "-m", "autograder", "grade", *map(str, args), "--config",
-                             str(config_file), "--quiet"], cwd=KIT_ROOT, env=env, stdout=subprocess.PIPE,
+                             str(config_file), "--quiet", *([] if pictures else ["--no-pictures"])], cwd=KIT_ROOT, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
 
 
@@ -165,7 +165,7 @@ def test_sigkill_mid_batch_then_resume_regrades_the_one_in_flight(tmp_path, conf
     live_folder = Path(live.stdout.readline().strip() or "no-folder")
     try:
         assert live_folder.name.startswith(f"hw4-hidden-{live.pid}-"), live_folder
-        records = grade_batch(subs, out, config=load_config(config_file), progress=False, limits=LIMITS)
+        records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=False, limits=LIMITS)
         # ... until the next batch swept them; a live grader's folder stays.
         assert not list(Path(tempfile.gettempdir()).glob(f"hw4-*-{proc.pid}-*"))
         assert live_folder.is_dir() and (live_folder / "hidden-inputs.pickle").is_file()
@@ -209,7 +209,7 @@ DRIVER = textwrap.dedent('''
 
     GradingRun.grade = deadly
     config, out, *subs = sys.argv[1:]
-    grade_batch(subs, out, config=load_config(config), progress=False)
+    grade_batch(subs, out, config=load_config(config), progress=False, pictures=False)
 ''')
 
 
@@ -231,17 +231,17 @@ def test_a_submission_in_flight_at_two_grader_deaths_is_recorded_as_failed(tmp_p
     assert dict((r[0], r[1]) for r in gradebook(out)) == {"a_key": "90", "poison": "0"}
     assert "poison" in (out / "summary.md").read_text() and inflight(out) == set()
     # A plain resume does not try it again (it would kill the grader); naming it does.
-    records = grade_batch(subs, out, config=load_config(config_file), progress=False, limits=LIMITS,
+    records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=False, limits=LIMITS,
                           regrade=["poison"])
     assert {r.name: (r.skipped, r.score) for r in records} == {"a_key": (True, FULL), "poison": (False, FULL)}
 
 
-def _interrupt(tmp_path, config_file, signals: int, transposed: float):
+def _interrupt(tmp_path, config_file, signals: int, transposed: float, *, pictures: bool = False):
     names = ["a_key", "b_key", "c_transposed", "d_key"]
     subs = [build(tmp_path, TRANSPOSED if "transposed" in n else KEY, n) for n in names]
     expected = {n: transposed if "transposed" in n else FULL for n in names}
     out = tmp_path / "graded"
-    proc = cli([*subs, "--out", out, "--jobs", "2"], config_file)
+    proc = cli([*subs, "--out", out, "--jobs", "2"], config_file, pictures=pictures)
     try:
         wait_for(lambda: len(inflight(out)) == 2, 120, "two submissions in flight")
         time.sleep(2.0)  # inside their sandboxes now
@@ -265,14 +265,16 @@ def _interrupt(tmp_path, config_file, signals: int, transposed: float):
     assert recorded == {p.parent.name for p in out.glob("*/grading.json")}
     assert recorded != set(names)  # it did stop
     assert inflight(out) == set()  # a cancelled run is no strike against the student
-    records = grade_batch(subs, out, config=load_config(config_file), progress=False, jobs=2, limits=LIMITS)
+    records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=pictures, jobs=2,
+                          limits=LIMITS)
     assert {r.name: r.score for r in records} == expected
     assert all(r.skipped == (r.name in recorded) for r in records)
     return stderr
 
 
 def test_one_ctrl_c_cancels_what_runs_records_nothing_wrong_and_writes_grades(tmp_path, config_file, alone):
-    stderr = _interrupt(tmp_path, config_file, 1, alone[TRANSPOSED])
+    # The batch's default: each submission's picture step runs in its sandbox after its checks.
+    stderr = _interrupt(tmp_path, config_file, 1, alone[TRANSPOSED], pictures=True)
     assert "interrupted:" in stderr and "run the same command again" in stderr
 
 
@@ -299,17 +301,17 @@ def test_resume_regrades_an_internal_error_and_regrade_names_one_student(tmp_pat
         return real(run, path, **kw)
 
     monkeypatch.setattr(GradingRun, "grade", broken)
-    first = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, limits=LIMITS)}
+    first = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, pictures=False, limits=LIMITS)}
     assert "internal error" in first["b_transposed"].failure and state(out, "b_transposed")["internal_errors"]
     monkeypatch.setattr(GradingRun, "grade", real)
-    second = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, limits=LIMITS)}
+    second = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, pictures=False, limits=LIMITS)}
     assert second["a_key"].skipped and not second["b_transposed"].skipped
     assert second["b_transposed"].failure is None and second["b_transposed"].score == alone[TRANSPOSED]
-    third = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, limits=LIMITS,
+    third = {r.name: r for r in grade_batch(subs, out, config=config, progress=False, pictures=False, limits=LIMITS,
                                             regrade=["a_key"])}
     assert not third["a_key"].skipped and third["b_transposed"].skipped and third["a_key"].score == FULL
     with pytest.raises(ValueError, match="regrade"):
-        grade_batch(subs, out, config=config, progress=False, regrade=["nobody"])
+        grade_batch(subs, out, config=config, progress=False, pictures=False, regrade=["nobody"])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -323,7 +325,7 @@ def graded_class(tmp_path_factory):
     subs = [build(root, KEY, "alice"), build(root, RANK3, "bob"), build(root, TRANSPOSED, "carol")]
     out = root / "published"
     loose = extra_check(root / "extra-loose", 1.0)
-    records = grade_batch(subs, out, config=quick_config(), jobs=2, progress=False, limits=LIMITS,
+    records = grade_batch(subs, out, config=quick_config(), jobs=2, progress=False, pictures=False, limits=LIMITS,
                           extra_tests=[loose])
     return {"root": root, "subs": subs, "out": out, "records": {r.name: r for r in records}}
 
@@ -345,6 +347,18 @@ def test_every_result_records_its_configuration(graded_class):
     assert "DEVELOPMENT secret" in summary and c["key"] in summary
 
 
+def test_without_pictures_the_feedback_is_text_only_and_the_scores_are_the_same(graded_class, alone):
+    # graded_class was graded with pictures=False (as `grade --no-pictures`); the batch's default
+    # draws them (tests/test_picture_step_sandbox.py).
+    out = graded_class["out"]
+    for name in ("alice", "bob", "carol"):
+        assert json.loads((out / name / "figures" / "figures.json").read_text()) == {}
+        page = (out / name / "feedback.html").read_text()
+        assert "data:image/png" not in page and "Q2" in page
+        assert state(out, name)["scores"], name
+    assert graded_class["records"]["carol"].score == alone[TRANSPOSED] + 1  # the extra check's point
+
+
 def test_official_data_only_when_asked_for(tmp_path):
     assert load_config(environ={}).official_dir() is None
     with pytest.raises(ValueError, match="official_data"):
@@ -359,13 +373,13 @@ def test_a_folder_refuses_results_of_another_configuration(graded_class, tmp_pat
     out, subs = graded_class["out"], graded_class["subs"]
     before = (out / "grades.csv").read_text()
     with pytest.raises(ConfigurationMismatch, match="secret"):
-        grade_batch(subs[:1], out, config=quick_config(secret="the course's own"), progress=False)
+        grade_batch(subs[:1], out, config=quick_config(secret="the course's own"), progress=False, pictures=False)
     with pytest.raises(ConfigurationMismatch, match="test files changed: extra/"):
-        grade_batch(subs[:1], out, config=quick_config(), progress=False,
+        grade_batch(subs[:1], out, config=quick_config(), progress=False, pictures=False,
                     extra_tests=[extra_check(tmp_path / "extra-strict", 1e-8)])
     env = {**os.environ, "PYTHONPATH": str(KIT_ROOT)}
     run = subprocess.run([sys.executable, "-m", "autograder", "grade", str(subs[0]), "--out", str(out), "--config",
-                          str(config_file), "--quiet"], cwd=KIT_ROOT, env=env, capture_output=True, text=True,
+                          str(config_file), "--quiet", "--no-pictures"], cwd=KIT_ROOT, env=env, capture_output=True, text=True,
                          timeout=120)
     assert run.returncode == 2 and "--regrade-all" in run.stderr and "another configuration" in run.stderr
     assert (out / "grades.csv").read_text() == before
@@ -383,7 +397,7 @@ def test_regrade_with_a_diff_names_exactly_the_students_whose_score_moved(graded
     config = tmp_path / "grader.json"
     config.write_text(json.dumps(quick_config().to_dict()))
     run = subprocess.run([sys.executable, "-m", "autograder", "regrade", str(out), "--into", str(new),
-                          "--hidden-dir", str(strict), "--config", str(config), "--jobs", "2", "--quiet"],
+                          "--hidden-dir", str(strict), "--config", str(config), "--jobs", "2", "--quiet", "--no-pictures"],
                          cwd=KIT_ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "1 changed score: bob" in run.stdout and "accept" in run.stdout

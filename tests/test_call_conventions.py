@@ -279,7 +279,7 @@ def graded(tmp_path_factory, config):
             nbformat.write(nb, folder / f"{stem}.ipynb")
         paths.append(folder)
     out = root / "out"
-    grade_batch(paths, out, jobs=2, config=config, progress=False, limits=LIMITS)
+    grade_batch(paths, out, jobs=2, config=config, progress=False, pictures=False, limits=LIMITS)
     return {name: json.loads((out / name / "results.json").read_text()) for name in SUBMISSIONS}
 
 

@@ -56,7 +56,7 @@ def setup(tmp_path_factory):
 def cli_scores(setup) -> dict:
     out = setup["root"] / "cli"
     proc = subprocess.run([sys.executable, "-m", "autograder", "grade", *map(str, setup["subs"].values()),
-                           "--out", str(out), "--quiet", "--config", str(setup["config"])],
+                           "--out", str(out), "--quiet", "--no-pictures", "--config", str(setup["config"])],
                           cwd=KIT_ROOT, env=setup["env"], capture_output=True, text=True, timeout=1800, check=False)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     with open(out / "grades.csv", newline="") as fh:

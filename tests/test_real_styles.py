@@ -390,7 +390,7 @@ def test_cli_grades_as_in_process(tmp_path):
     env.pop("HW4_GRADER_CONFIG", None)
     started = time.perf_counter()
     run = subprocess.run([sys.executable, "-m", "autograder", "grade", *map(str, built), "--out", str(tmp_path / "out"),
-                          "--jobs", str(parallel.workers()), "--quiet"], cwd=KIT_ROOT, env=env, capture_output=True,
+                          "--jobs", str(parallel.workers()), "--quiet", "--no-pictures"], cwd=KIT_ROOT, env=env, capture_output=True,
                          text=True, timeout=1500)
     print(f"\nCLI: {len(built)} programs in {time.perf_counter() - started:.0f} s")
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
