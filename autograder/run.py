@@ -51,7 +51,7 @@ from .results import SubmissionResult
 from .sandbox import ResourceLimits, Sandbox, leftovers
 from .workers import WorkerPool
 
-__all__ = ["GradingRun", "grade_submission", "hidden_paths", "open_sandbox"]
+__all__ = ["GradingRun", "hidden_paths", "open_sandbox"]
 
 
 def hidden_paths(*paths) -> list[Path]:
@@ -332,14 +332,3 @@ class GradingRun:
             leftovers.release(folder, fd)
             atexit.unregister(self._release_cache)
 
-
-def grade_submission(path: str | os.PathLike, *, sandbox: Sandbox, hidden_inputs: HiddenInputs,
-                     student_id: str | None = None, staff: dict | None = None,
-                     extra_tests: Sequence[str | os.PathLike] = (), deadline: float | None = None,
-                     pictures: bool = False) -> SubmissionResult:
-    """One submission graded in a run of its own around an existing ``sandbox`` (no canary): for
-    tools and tests that hold a Sandbox; a channel grading many keeps one ``GradingRun``.
-    ``pictures``: as ``GradingRun``'s (the result carries the picture step's record)."""
-    with GradingRun(hidden_inputs.config, hidden_inputs=hidden_inputs, extra_tests=extra_tests,
-                    deadline=deadline, sandbox=sandbox, pictures=pictures) as run:
-        return run.grade(path, student_id=student_id, staff=staff)
