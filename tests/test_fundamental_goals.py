@@ -1,6 +1,6 @@
 """Q2's goals hold under every secret (issue 9): valid methods keep full Q2, mistakes lose it.
 
-For each of 20 secrets the hidden Q2 inputs are prepared as the grader prepares them
+For each secret (CI's 8, the release sweep's 20: tests/breadth.py) the hidden Q2 inputs are prepared as the grader prepares them
 (``autograder.hidden.cases.fundamental.prepare_fundamental`` on the hidden scenes of
 ``quick_config(secret=...)``; the default data, the same under every secret, under the first),
 every eightpoint below is called through a ``LocalStudent`` as the hidden tests call it
@@ -14,7 +14,7 @@ the hidden tests' own ``judge_q2``:
   refineF after unscaling) loses Q2 under every secret, named "F transposed";
 - every other mistake of the catalogue (transposed, rank 3 without refineF, not unscaled, unscaled
   the wrong way, x/y swapped, uint16 wrap-around; with and without refineF) loses Q2 and is named, under the
-  first secrets (tests/test_secret_sweep.py judges them under all 20).
+  first secrets (tests/test_secret_sweep.py judges them under all its secrets).
 
 The margins (measured / goal of every judgment: the largest of the valid methods, and for each
 mistake the judgment that rejects it most clearly) are printed for the report (``pytest -s``).
@@ -25,6 +25,7 @@ from __future__ import annotations
 import re
 from functools import lru_cache
 
+import breadth
 import corpus
 import numpy as np
 import parallel
@@ -34,7 +35,7 @@ from corpus import variants
 # The hidden tests register their "points" marker in their own pytest.ini, not here.
 pytestmark = [pytest.mark.slow, pytest.mark.filterwarnings("ignore::pytest.PytestUnknownMarkWarning")]
 
-SECRETS = [f"goal-secret-{k:02d}" for k in range(20)]
+SECRETS = breadth.secrets("goal-secret")   # CI's breadth, 20 with HW4_SWEEP_ALL=1 (tests/breadth.py)
 # The other mistakes of the catalogue (each also judged by tests/test_secret_sweep.py) under the
 # first few secrets: refineF's cost (about 0.2 s a call) makes every secret count.
 MISTAKE_SECRETS = SECRETS[:5]

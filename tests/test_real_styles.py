@@ -1,5 +1,5 @@
 """Real students' styles are graded as the handout says (issue 16): tests/realstyles under the
-grader, in process under the 20 secrets of the sweep and through the CLI, and under the public
+grader, in process under the secrets of the sweep and through the CLI, and under the public
 self-checks.
 
 - every valid program gets full marks on every autograded question, under every secret it is
@@ -33,17 +33,18 @@ from dataclasses import dataclass
 
 import parallel
 import pytest
+import breadth
 import realstyles
 from realstyles import PROGRAMS, QUESTION_FUNCTIONS
 
 pytestmark = pytest.mark.slow
 
 ALL = frozenset(QUESTION_FUNCTIONS)
-SECRETS = [f"sweep-secret-{k:02d}" for k in range(20)][:int(os.environ.get("HW4_SWEEP_SECRETS") or 20)]
+SECRETS = breadth.secrets("sweep-secret")   # the secret sweep's (tests/breadth.py)
 # Each program runs what it does not share (see "sharing work") under one secret, the programs taking
-# SPREAD of the 20 in turn (building a secret's hidden inputs costs about 5 s: the sweep is where
-# every secret is tried); HW4_SWEEP_ALL=1 runs every program under every secret.
-SWEEP_ALL = bool(os.environ.get("HW4_SWEEP_ALL"))
+# SPREAD of the sweep's secrets in turn (building a secret's hidden inputs costs about 5 s: the sweep
+# is where every secret is tried); HW4_SWEEP_ALL=1 runs every program under every secret.
+SWEEP_ALL = breadth.RELEASE
 SPREAD = 6
 CLI_SECRET = SECRETS[0]
 # A few programs through the CLI: the course's helpers as util (given by the sandbox, refineF through

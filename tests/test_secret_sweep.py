@@ -1,9 +1,9 @@
-"""Grades do not depend on the secret beyond noise (issue 9): the corpus graded under 20 secrets.
+"""Grades do not depend on the secret beyond noise (issue 9): the corpus graded under many secrets.
 
 For each secret, the hidden inputs of ``quick_config(secret=...)`` are built once
 (``autograder.hidden.inputs.build_hidden_inputs``: the batch's inputs, which every program of
 the secret shares; the grader draws each submission's own from the secret and its code, which the
-20 secrets stand in for) and the kit's valid alternatives and mistakes are graded by the real
+secrets stand in for: CI's first 8, all 20 with ``HW4_SWEEP_ALL=1``, see tests/breadth.py) and the kit's valid alternatives and mistakes are graded by the real
 hidden tests, in this process (``autograder.hidden.plugin.run_here`` on a ``LocalStudent`` of the
 program's functions), for every autograded question:
 
@@ -29,12 +29,12 @@ from __future__ import annotations
 
 import contextlib
 import io
-import os
 import re
 import time
 import types
 from dataclasses import dataclass, field
 
+import breadth
 import corpus
 import numpy as np
 import parallel
@@ -43,13 +43,13 @@ from corpus import variants
 
 pytestmark = pytest.mark.slow
 
-# HW4_SWEEP_SECRETS=n sweeps the first n only (a quick look while editing; CI sweeps all 20).
-SECRETS = [f"sweep-secret-{k:02d}" for k in range(20)][:int(os.environ.get("HW4_SWEEP_SECRETS") or 20)]
+# CI sweeps the first breadth.CI_SECRETS; HW4_SWEEP_ALL=1 all 20 (tests/breadth.py).
+SECRETS = breadth.secrets("sweep-secret")
 # Programs whose own optimiser costs most of the sweep (an eightpoint that calls refineF: 1-5 CPU s a
 # secret, a bundleAdjustment of their own: 1-4 s; all the others together: about 5 s) are graded
 # under every COSTLY_STRIDE-th secret, in turn, so that each secret still grades a share of them.
 # HW4_SWEEP_ALL=1 grades every program under every secret (about twice the time).
-COSTLY_STRIDE = 1 if os.environ.get("HW4_SWEEP_ALL") else 4
+COSTLY_STRIDE = 1 if breadth.RELEASE else 4
 
 HOMEWORK = ("eightpoint", "essentialMatrix", "triangulate", "findM2", "epipolarCorrespondence", "compute3D_pts",
             "rodriguesResidual", "bundleAdjustment", "MultiviewReconstruction")
