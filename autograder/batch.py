@@ -90,18 +90,6 @@ class _SetUpCancelled(KeyboardInterrupt):
     """Raised in the main thread by the first Ctrl-C while the batch is being set up."""
 
 
-def _drain(results: queue.Queue, running: dict, seconds: float) -> None:
-    """Take finished runs off ``results`` (discarding them: the batch is being cancelled) for up to
-    ``seconds``, until nothing runs."""
-    end = time.monotonic() + seconds
-    while running and time.monotonic() < end:
-        try:
-            _, name, _ = results.get(timeout=0.2)
-            running.pop(name, None)
-        except queue.Empty:
-            pass
-
-
 # ------------------------------------------------------------------------------------------------
 # the batch
 
@@ -265,7 +253,10 @@ class _Batch:
             self.journal = Journal(self.out)
             self.signals.stoppable(self.run.make_inputs)  # made once, before the workers start
             self._check_cancel()
-            self.bar = _progress(len(self.paths), self.progress)
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=len(self.paths), desc="grading", unit="sub", disable=not self.progress,
+                            dynamic_ncols=True)
             pending = self.plan()
             self._check_cancel()
             if self.canary and pending:
@@ -450,11 +441,22 @@ class _Batch:
             self._take(*self.results.get_nowait())
         self.cancelled = sorted(self.running)
         signal_all(descendants()[0], signal.SIGINT)  # the pytest runs stop and close their sessions
-        _drain(self.results, self.running, _INTERRUPT_GRACE)
+        self._drain(_INTERRUPT_GRACE)
         kill_grading_processes(self.run.sandboxes())
-        _drain(self.results, self.running, _KILL_WAIT)
+        self._drain(_KILL_WAIT)
         for name in self.cancelled:
             self.journal.clear(name)  # not the student's fault: graded again on resume, no strike
+
+    def _drain(self, seconds: float) -> None:
+        """Take finished runs off ``results`` (discarding them: the batch is being cancelled) for up to
+        ``seconds``, until nothing runs."""
+        end = time.monotonic() + seconds
+        while self.running and time.monotonic() < end:
+            try:
+                _, name, _ = self.results.get(timeout=0.2)
+                self.running.pop(name, None)
+            except queue.Empty:
+                pass
 
     def write_gradebook(self) -> list[BatchRecord]:
         """grades.csv, configuration.json and summary.md; the records of this batch, in the order given."""
@@ -484,9 +486,3 @@ class _Batch:
                          if not self.signals.setup else "\ninterrupted twice while setting up: nothing was graded\n")
         sys.stderr.flush()
         os._exit(130)
-
-
-def _progress(total: int, enabled: bool):
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc="grading", unit="sub", disable=not enabled, dynamic_ncols=True)
