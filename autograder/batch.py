@@ -39,6 +39,7 @@ What makes it safe to stop and resume:
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import signal
@@ -87,18 +88,6 @@ class BatchInterrupted(KeyboardInterrupt):
 
 class _SetUpCancelled(KeyboardInterrupt):
     """Raised in the main thread by the first Ctrl-C while the batch is being set up."""
-
-
-def _drain(results: queue.Queue, running: dict, seconds: float) -> None:
-    """Take finished runs off ``results`` (discarding them: the batch is being cancelled) for up to
-    ``seconds``, until nothing runs."""
-    end = time.monotonic() + seconds
-    while running and time.monotonic() < end:
-        try:
-            _, name, _ = results.get(timeout=0.2)
-            running.pop(name, None)
-        except queue.Empty:
-            pass
 
 
 # ------------------------------------------------------------------------------------------------
@@ -164,307 +153,338 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
         if regrade_all:
             resume = False
         with run:
-            return _run(run, paths, names, out, jobs=jobs, resume=resume, progress=progress, on_done=on_done,
-                        forced=set(regrade), note=note, canary=canary)
+            return _Batch(run, paths, names, out, jobs=jobs, resume=resume, progress=progress, on_done=on_done,
+                          forced=set(regrade), note=note, canary=canary).grade()
     finally:
         os.close(folder_lock)
 
 
-def _run(run: GradingRun, paths, names, out: Path, *, jobs, resume, progress, on_done, forced, note,
-         canary=True) -> list[BatchRecord]:
-    record = run.record
-    key = record["key"]
-    levels: set = set()
-    cancel = threading.Event()
-    write_lock = threading.Lock()
-    inflight: set[str] = set()
-    # Ctrl-C is handled from here on, set-up included: "setup" while nothing is graded yet (the
-    # first signal stops the set-up), "raise" while the main thread may be stopped where it is.
-    sig = {"signals": 0, "setup": True, "raise": False}
+class _Signals:
+    """Ctrl-C (SIGINT or SIGTERM) in one batch: the first sets ``cancel``, the second calls ``hard_exit``."""
 
-    def hard_exit() -> None:
-        # Second Ctrl-C: kill the grading processes, record nothing more, keep what is on disk.
-        got = write_lock.acquire(timeout=1.0)
-        cancel.set()
-        kill_grading_processes(run.sandboxes())
-        for name in list(inflight):
-            journal.clear(name)
-        if not sig["setup"]:
-            try:
-                cancelled.extend(sorted(inflight))
-                write_gradebook()
-            except Exception:  # noqa: BLE001 - exiting anyway
-                pass
-        if got:
-            write_lock.release()
-        sys.stderr.write("\ninterrupted twice: stopped at once; grades.csv lists what was finished\n"
-                         if not sig["setup"] else "\ninterrupted twice while setting up: nothing was graded\n")
-        sys.stderr.flush()
-        os._exit(130)
+    def __init__(self, cancel: threading.Event, hard_exit: Callable[[], None]):
+        self.cancel, self.hard_exit, self.count = cancel, hard_exit, 0
+        self.setup = True       # nothing is graded yet: the first signal stops the set-up
+        self.raising = False    # a set-up step runs in the main thread: the first signal stops it where it is
+        self._previous: dict = {}
 
-    def on_signal(signum, frame) -> None:
-        sig["signals"] += 1
-        if sig["signals"] == 1:
-            cancel.set()
-            if sig["raise"]:
-                sig["raise"] = False
-                raise _SetUpCancelled()
-        else:
-            hard_exit()
+    def install(self) -> None:
+        # Python lets only the main thread set handlers: called from another, the batch has none.
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self._previous[signum] = signal.signal(signum, self._on_signal)
 
-    handlers = {}
-    if threading.current_thread() is threading.main_thread():
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            handlers[signum] = signal.signal(signum, on_signal)
-
-    def restore_handlers() -> None:
-        for signum, old in handlers.items():
+    def restore(self) -> None:
+        for signum, old in self._previous.items():
             signal.signal(signum, old)
 
-    def stop_set_up() -> BatchInterrupted:
-        # Nothing was graded: no journal entry was written, nothing is recorded.  The canary's
-        # grading processes (a worker, the key's sandbox) are killed; the same command grades later.
-        sig["raise"] = False
-        kill_grading_processes(run.sandboxes())
-        run.close()
-        restore_handlers()
-        return BatchInterrupted([], [], setup=True)
+    def stoppable(self, step: Callable):
+        """``step()``; the first signal while it runs raises ``_SetUpCancelled`` in it."""
+        self.raising = True
+        try:
+            return step()
+        finally:
+            self.raising = False
 
-    def check_cancel() -> None:
-        if cancel.is_set():
+    def _on_signal(self, signum, frame) -> None:
+        self.count += 1
+        if self.count == 1:
+            self.cancel.set()
+            if self.raising:
+                self.raising = False
+                raise _SetUpCancelled()
+        else:
+            self.hard_exit()
+
+
+class _Batch:
+    """One batch in an entered ``GradingRun``: set-up, plan, workers, Ctrl-C, gradebook; ``grade()`` once."""
+
+    def __init__(self, run: GradingRun, paths: list[Path], names: list[str], out: Path, *, jobs: int,
+                 resume: bool, progress: bool, on_done, forced: set[str], note: str, canary: bool = True):
+        self.run, self.paths, self.names, self.out = run, paths, names, out
+        self.jobs, self.resume, self.progress, self.on_done = jobs, resume, progress, on_done
+        self.forced, self.note, self.canary = forced, note, canary
+        self.record, self.key = run.record, run.record["key"]
+        self.cancel = threading.Event()
+        self.write_lock = threading.Lock()  # a result is written whole, or not once the batch is cancelled
+        self.signals = _Signals(self.cancel, self.hard_exit)
+        self.journal: Journal | None = None  # made by the set-up, once the handlers are in place
+        self.bar = None
+        self.levels: set = set()
+        self.records: dict[int, BatchRecord] = {}    # by position in paths: the gradebook keeps their order
+        self.cancelled: list[str] = []
+        self.suspects: set[int] = set()   # left in flight by a dead grader, not graded yet: graded alone
+        self.running: dict[str, int] = {}  # handed to a worker (name: position), result not taken yet
+        self.inflight: set[str] = set()    # the same names, kept while cancelling: what a second signal clears
+        self.tasks, self.results = queue.Queue(), queue.Queue()  # (to the workers, from them)
+
+    def grade(self) -> list[BatchRecord]:
+        self.signals.install()  # set-up included
+        pending = self.set_up()
+        self.signals.setup = False  # from here a first Ctrl-C cancels the grading
+        threads = [threading.Thread(target=self._worker, name=f"grade-{i}", daemon=True)
+                   for i in range(min(self.jobs, max(len(pending), 1)))]
+        for t in threads:
+            t.start()
+        try:
+            self._schedule(pending)
+            if self.cancel.is_set():
+                self._cancel_running()
+            if not self.cancel.is_set():
+                for _ in threads:
+                    self.tasks.put(None)
+                for t in threads:
+                    t.join()
+            self.run.close()
+            ordered = self.write_gradebook()  # a second signal until here exits at once, with grades.csv written
+        finally:
+            for _ in threads:
+                self.tasks.put(None)
+            self.signals.restore()
+            self.bar.close()
+        if self.cancel.is_set():
+            raise BatchInterrupted(ordered, self.cancelled)
+        return ordered
+
+    def set_up(self) -> list[tuple]:
+        """Configuration, journal, hidden inputs, plan and canary: the tasks to grade, suspects first."""
+        try:
+            self._check_cancel()
+            write_configuration(self.out, self.record, self.levels)
+            self.journal = Journal(self.out)
+            self.signals.stoppable(self.run.make_inputs)  # made once, before the workers start
+            self._check_cancel()
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=len(self.paths), desc="grading", unit="sub", disable=not self.progress,
+                            dynamic_ncols=True)
+            pending = self.plan()
+            self._check_cancel()
+            if self.canary and pending:
+                self._run_canary()
+            self._check_cancel()
+            return pending
+        except BaseException as exc:
+            self.signals.raising = False
+            if self.bar is not None:
+                self.bar.close()
+            if isinstance(exc, _SetUpCancelled):
+                # Nothing was graded: no journal entry was written, nothing is recorded.  The canary's
+                # grading processes (a worker, the key's sandbox) are killed; the same command grades later.
+                kill_grading_processes(self.run.sandboxes())
+                self.run.close()
+                self.signals.restore()
+                raise BatchInterrupted([], [], setup=True) from None
+            self.signals.restore()
+            raise
+
+    def _check_cancel(self) -> None:
+        if self.cancel.is_set():
             raise _SetUpCancelled()
 
-    try:
-        check_cancel()
-        write_configuration(out, record, levels)
-        journal = Journal(out)
-        sig["raise"] = True  # making the hidden inputs: stopped where it is by the first signal
-        run.make_inputs()  # made once, before the workers start
-        sig["raise"] = False
-        check_cancel()
-    except _SetUpCancelled:
-        raise stop_set_up() from None
-    except BaseException:
-        sig["raise"] = False
-        restore_handlers()
-        raise
+    def plan(self) -> list[tuple]:
+        """Resume, record as failed, or make a task ``(position, path, name, digest, attempt)`` of each
+        submission: the suspects (in flight when a grader died) first."""
+        suspects, rest = [], []
+        for k, (path, name) in enumerate(zip(self.paths, self.names)):
+            if self.cancel.is_set():
+                break
+            task = self._plan_one(k, path, name)
+            if task is not None:
+                (suspects if task[4] > 1 else rest).append(task)
+        self.suspects = {task[0] for task in suspects}
+        return suspects + rest
 
-    def finish(result: SubmissionResult, path: Path, name: str, digest: str, staff: dict, start: float,
-               *, poison: bool = False) -> BatchRecord | None:
-        # The result comes finished and stamped by the run: written as it is, with the pictures of
-        # the public data it carries (feedback.html and figures/).
-        level = (result.configuration or {}).get("isolation")
-        figures = figures_of(result.pictures)  # checked (and drawn if need be) outside the lock
-        folder = out / name
-        with write_lock:
-            if cancel.is_set():
-                if not sig["setup"]:  # (in the set-up, nothing was started: the journal stays as found)
-                    journal.clear(name)
-                return None  # graded (or broken) while being cancelled: nothing recorded, no strike
-            write_outputs(folder, result, state_of(result, path, digest, staff, poison=poison), figures)
-            journal.clear(name)
-        return BatchRecord(name, path, folder, result.score, {q.id: q.score for q in result.questions},
-                           result.failure, False, time.monotonic() - start, key, level, **staff_of(staff))
+    def _plan_one(self, k: int, path: Path, name: str) -> tuple | None:
+        try:
+            digest = submission_digest(path)
+        except OSError as exc:  # one unreadable submission is its student's failure, never the batch's
+            self._record_failed(k, path, name, "unreadable", {"log": [traceback.format_exc()]},
+                                f"the submission could not be read ({type(exc).__name__}: {exc.strerror or exc}); "
+                                "the course staff will look at it")
+            return None
+        deaths = self.journal.deaths(name, digest, self.key)
+        if deaths >= DEATHS_TO_FAIL and name not in self.forced:
+            staff = {"log": [(f"the grader process died {deaths} times while this submission was being graded "
+                              f"(killed or stopped from outside, or by the submission); not graded again. Look at "
+                              f"it by hand, or grade it alone with --regrade {name}.")]}
+            self._record_failed(k, path, name, digest, staff,
+                                "the autograder stopped while grading this submission, more than once, so it was "
+                                "not graded; the course staff will look at it", poison=True)
+            return None
+        if self.resume and name not in self.forced:
+            state = resumable(self.out / name, digest, self.key)
+            if state is not None:
+                iso = state.get("isolation")
+                self._done(k, BatchRecord(name, path, self.out / name, float(state.get("score", 0.0)),
+                                          dict(state.get("scores", {})), state.get("failure"), True, 0.0, self.key,
+                                          iso.get("level") if isinstance(iso, dict) else None,
+                                          **staff_of(state.get("staff"))))
+                return None
+        return (k, path, name, digest, deaths + 1)
 
-    def work(path: Path, name: str, digest: str, attempt: int) -> BatchRecord | None:
-        if cancel.is_set():
+    def _record_failed(self, k: int, path: Path, name: str, digest: str, staff: dict, message: str, *,
+                       poison: bool = False) -> None:
+        rec = self._record(self.run.failed(message, student_id=name), path, name, digest, staff, time.monotonic(),
+                           poison=poison)
+        if rec is not None:
+            self._done(k, rec)
+
+    def _run_canary(self) -> None:
+        # In the main thread, before any worker: a refusal must stop the batch, not become an
+        # internal error per submission.
+        report = self.signals.stoppable(self.run.run_canary)
+        level = (report.isolation or {}).get("level", "?")
+        weak = " **WEAK isolation: student code ran as the grader's own user**" if (report.isolation or {}).get("weak") else ""
+        canary = (f"Canary: the answer key got full marks ({report.score:g} points, base total "
+                  f"{report.max_score:g}) in {report.seconds:.1f} s at the {level} level.{weak}")
+        self.note = "\n".join(x for x in (self.note, canary) if x)
+        if level == "uid" and self.jobs > 1:
+            # Without namespaces, /dev/shm and other users' world-writable folders are shared:
+            # two submissions graded at the same time could pass each other files there.
+            self.jobs = 1
+            self.note += ("\nAt the uid level submissions are graded one at a time (--jobs was "
+                          "lowered to 1): two at once could exchange files through /dev/shm.")
+
+    def _worker(self) -> None:
+        while True:
+            item = self.tasks.get()
+            if item is None:
+                return
+            k, path, name, digest, attempt = item
+            try:
+                rec = self._work(path, name, digest, attempt)
+            except BaseException:  # noqa: BLE001 - a worker never dies silently
+                traceback.print_exc()
+                rec = None
+            self.results.put((k, name, rec))
+
+    def _work(self, path: Path, name: str, digest: str, attempt: int) -> BatchRecord | None:
+        if self.cancel.is_set():
             return None
         start = time.monotonic()
         staff: dict = {"log": []}
         if attempt > 1:
             staff["log"].append(f"graded again: a grader died while grading it (attempt {attempt})")
-        journal.start(name, digest, key, attempt)
+        self.journal.start(name, digest, self.key, attempt)
         try:
-            result = run.grade(path, student_id=name, staff=staff)
+            result = self.run.grade(path, student_id=name, staff=staff)
         except Exception as exc:  # noqa: BLE001 - the catastrophic path: a failed result, never a stop
-            if cancel.is_set():
-                journal.clear(name)
+            if self.cancel.is_set():
+                self.journal.clear(name)
                 return None
             staff["log"].append(traceback.format_exc())
             staff["internal_error"] = True
-            result = run.failed(
+            result = self.run.failed(
                 f"the autograder hit an internal error ({type(exc).__name__}) while grading it; the course staff "
                 f"will grade it again", student_id=name, execution_time=time.monotonic() - start)
-        return finish(result, path, name, digest, staff, start)
+        return self._record(result, path, name, digest, staff, start)
 
-    # What to do with each submission: resume it, record it as failed, or grade it (suspects first).
-    records: dict[int, BatchRecord] = {}
-    suspects: list[tuple] = []
-    rest: list[tuple] = []
-    bar = _progress(len(paths), progress)
+    def _record(self, result: SubmissionResult, path: Path, name: str, digest: str, staff: dict, start: float,
+                *, poison: bool = False) -> BatchRecord | None:
+        # The result comes finished and stamped by the run: written as it is, with the pictures of
+        # the public data it carries (feedback.html and figures/).
+        level = (result.configuration or {}).get("isolation")
+        figures = figures_of(result.pictures)  # checked (and drawn if need be) outside the lock
+        folder = self.out / name
+        with self.write_lock:
+            if self.cancel.is_set():
+                if not self.signals.setup:  # (in the set-up, nothing was started: the journal stays as found)
+                    self.journal.clear(name)
+                return None  # graded (or broken) while being cancelled: nothing recorded, no strike
+            write_outputs(folder, result, state_of(result, path, digest, staff, poison=poison), figures)
+            self.journal.clear(name)
+        return BatchRecord(name, path, folder, result.score, {q.id: q.score for q in result.questions},
+                           result.failure, False, time.monotonic() - start, self.key, level, **staff_of(staff))
 
-    def done(k: int, rec: BatchRecord) -> None:
-        records[k] = rec
+    def _done(self, k: int, rec: BatchRecord) -> None:
+        self.records[k] = rec
         if rec.isolation:
-            levels.add(rec.isolation)
-        if on_done is not None:
-            on_done(rec)
-        bar.update(1)
-        bar.set_postfix_str(for_terminal(f"{rec.name}: {rec.score:g}" + (" (resumed)" if rec.skipped else ""), 80))
+            self.levels.add(rec.isolation)
+        if self.on_done is not None:
+            self.on_done(rec)
+        self.bar.update(1)
+        self.bar.set_postfix_str(for_terminal(f"{rec.name}: {rec.score:g}" + (" (resumed)" if rec.skipped else ""), 80))
 
-    try:
-        for k, (path, name) in enumerate(zip(paths, names)):
-            if cancel.is_set():
-                break
-            try:
-                digest = submission_digest(path)
-            except OSError as exc:  # one unreadable submission is its student's failure, never the batch's
-                result = run.failed(
-                    f"the submission could not be read ({type(exc).__name__}: {exc.strerror or exc}); the course "
-                    "staff will look at it", student_id=name)
-                rec = finish(result, path, name, "unreadable", {"log": [traceback.format_exc()]}, time.monotonic())
-                if rec is not None:
-                    done(k, rec)
-                continue
-            deaths = journal.deaths(name, digest, key)
-            folder = out / name
-            if deaths >= DEATHS_TO_FAIL and name not in forced:
-                staff = {"log": [f"the grader process died {deaths} times while this submission was being graded "
-                                 f"(killed or stopped from outside, or by the submission); not graded again. Look at "
-                                 f"it by hand, or grade it alone with --regrade {name}."]}
-                result = run.failed(
-                    "the autograder stopped while grading this submission, more than once, so it was not graded; "
-                    "the course staff will look at it", student_id=name)
-                rec = finish(result, path, name, digest, staff, time.monotonic(), poison=True)
-                if rec is not None:
-                    done(k, rec)
-                continue
-            if resume and name not in forced:
-                state = resumable(folder, digest, key)
-                if state is not None:
-                    iso = state.get("isolation")
-                    done(k, BatchRecord(name, path, folder, float(state.get("score", 0.0)),
-                                        dict(state.get("scores", {})), state.get("failure"), True, 0.0, key,
-                                        iso.get("level") if isinstance(iso, dict) else None,
-                                        **staff_of(state.get("staff"))))
-                    continue
-            (suspects if deaths else rest).append((k, path, name, digest, deaths + 1))
-
-        check_cancel()
-        tasks: queue.Queue = queue.Queue()
-        results: queue.Queue = queue.Queue()
-
-        def worker() -> None:
-            while True:
-                item = tasks.get()
-                if item is None:
-                    return
-                k, path, name, digest, attempt = item
-                try:
-                    rec = work(path, name, digest, attempt)
-                except BaseException:  # noqa: BLE001 - a worker never dies silently
-                    traceback.print_exc()
-                    rec = None
-                results.put((k, name, rec))
-
-        pending = suspects + rest
-        n_suspects = len(suspects)
-        if canary and pending:
-            # In the main thread, before any worker: a refusal must stop the batch, not become an
-            # internal error per submission.
-            sig["raise"] = True  # the key's grading is stopped where it is by the first signal
-            report = run.run_canary()
-            sig["raise"] = False
-            level = (report.isolation or {}).get("level", "?")
-            weak = " **WEAK isolation: student code ran as the grader's own user**" if (report.isolation or {}).get("weak") else ""
-            note = "\n".join(x for x in (note, f"Canary: the answer key got full marks ({report.score:g} points, base "
-                                                 f"total {report.max_score:g}) in {report.seconds:.1f} s at the {level} "
-                                                 f"level.{weak}") if x)
-            if level == "uid" and jobs > 1:
-                # Without namespaces, /dev/shm and other users' world-writable folders are shared:
-                # two submissions graded at the same time could pass each other files there.
-                jobs = 1
-                note += ("\nAt the uid level submissions are graded one at a time (--jobs was "
-                         "lowered to 1): two at once could exchange files through /dev/shm.")
-        check_cancel()
-    except _SetUpCancelled:
-        bar.close()
-        raise stop_set_up() from None
-    except BaseException:
-        sig["raise"] = False
-        bar.close()
-        restore_handlers()
-        raise
-    sig["setup"] = False  # from here a first Ctrl-C cancels the grading (the loop below)
-    threads = [threading.Thread(target=worker, name=f"grade-{i}", daemon=True)
-               for i in range(min(jobs, max(len(pending), 1)))]
-    for t in threads:
-        t.start()
-    cancelled: list[str] = []
-
-    def write_gradebook() -> list[BatchRecord]:
-        ordered = [records[k] for k in sorted(records)]
-        everyone = ordered + earlier_records(out, {r.name for r in ordered} | set(cancelled), key)
-        write_grades_csv(out / "grades.csv", everyone)
-        write_configuration(out, record, levels | {r.isolation for r in everyone if r.isolation})
-        calls = find_in_class([(r.name, r.path) for r in everyone], run.config.library_names())
-        write_summary(out / "summary.md", everyone, record, cancelled=cancelled, note=note, library_calls=calls)
-        return ordered
-
-    running: dict[str, int] = {}
-    try:
+    def _schedule(self, pending: list[tuple]) -> None:
+        """Hand ``pending`` to the workers and take their results, until all are done or cancelled."""
         last_refresh = time.monotonic()
-        while pending or running:
-            limit = 1 if n_suspects > 0 else jobs
-            while pending and len(running) < limit and not cancel.is_set():
-                k, path, name, digest, attempt = pending.pop(0)
-                running[name] = k
-                inflight.add(name)
-                tasks.put((k, path, name, digest, attempt))
-            if cancel.is_set():
-                break
+        while pending or self.running:
+            limit = 1 if self.suspects else self.jobs
+            while pending and len(self.running) < limit and not self.cancel.is_set():
+                task = pending.pop(0)
+                self.running[task[2]] = task[0]
+                self.inflight.add(task[2])
+                self.tasks.put(task)
+            if self.cancel.is_set():
+                return
             try:
-                k, name, rec = results.get(timeout=0.2)
+                k, name, rec = self.results.get(timeout=0.2)
             except queue.Empty:
                 if time.monotonic() - last_refresh > 1.0:
-                    bar.refresh()
+                    self.bar.refresh()
                     last_refresh = time.monotonic()
                 continue
-            running.pop(name, None)
-            inflight.discard(name)
-            if n_suspects > 0 and k in {s[0] for s in suspects}:
-                n_suspects -= 1
-            if rec is not None:
-                done(k, rec)
-        if cancel.is_set():
-            bar.set_description("cancelling")
-            with write_lock:
-                pass  # a result being written now was finished before the signal; any later one is dropped
-            while True:  # results that were recorded before the signal
-                try:
-                    k, name, rec = results.get_nowait()
-                except queue.Empty:
-                    break
-                running.pop(name, None)
-                inflight.discard(name)
-                if rec is not None:
-                    done(k, rec)
-            cancelled = sorted(running)
-            signal_all(descendants()[0], signal.SIGINT)  # the pytest runs stop and close their sessions
-            _drain(results, running, _INTERRUPT_GRACE)
-            kill_grading_processes(run.sandboxes())
-            _drain(results, running, _KILL_WAIT)
-            for name in cancelled:
-                journal.clear(name)  # not the student's fault: graded again on resume, no strike
-        if not cancel.is_set():
-            for _ in threads:
-                tasks.put(None)
-            for t in threads:
-                t.join()
-        run.close()
-        ordered = write_gradebook()  # a second signal until here exits at once, with grades.csv written
-    finally:
-        for _ in threads:
-            tasks.put(None)
-        restore_handlers()
-        bar.close()
-    if cancel.is_set():
-        raise BatchInterrupted(ordered, cancelled)
-    return ordered
+            self.suspects.discard(k)
+            self._take(k, name, rec)
 
+    def _take(self, k: int, name: str, rec: BatchRecord | None) -> None:
+        self.running.pop(name, None)
+        self.inflight.discard(name)
+        if rec is not None:
+            self._done(k, rec)
 
-def _progress(total: int, enabled: bool):
-    from tqdm.auto import tqdm
+    def _cancel_running(self) -> None:
+        self.bar.set_description("cancelling")
+        with self.write_lock:
+            pass  # a result being written now was finished before the signal; any later one is dropped
+        while not self.results.empty():  # results that were recorded before the signal (only this thread takes)
+            self._take(*self.results.get_nowait())
+        self.cancelled = sorted(self.running)
+        signal_all(descendants()[0], signal.SIGINT)  # the pytest runs stop and close their sessions
+        self._drain(_INTERRUPT_GRACE)
+        kill_grading_processes(self.run.sandboxes())
+        self._drain(_KILL_WAIT)
+        for name in self.cancelled:
+            self.journal.clear(name)  # not the student's fault: graded again on resume, no strike
 
-    return tqdm(total=total, desc="grading", unit="sub", disable=not enabled, dynamic_ncols=True)
+    def _drain(self, seconds: float) -> None:
+        """Take finished runs off ``results`` (discarding them: the batch is being cancelled) for up to
+        ``seconds``, until nothing runs."""
+        end = time.monotonic() + seconds
+        while self.running and time.monotonic() < end:
+            try:
+                _, name, _ = self.results.get(timeout=0.2)
+                self.running.pop(name, None)
+            except queue.Empty:
+                pass
 
+    def write_gradebook(self) -> list[BatchRecord]:
+        """grades.csv, configuration.json and summary.md; the records of this batch, in the order given."""
+        ordered = [self.records[k] for k in sorted(self.records)]
+        everyone = ordered + earlier_records(self.out, {r.name for r in ordered} | set(self.cancelled), self.key)
+        write_grades_csv(self.out / "grades.csv", everyone)
+        write_configuration(self.out, self.record, self.levels | {r.isolation for r in everyone if r.isolation})
+        calls = find_in_class([(r.name, r.path) for r in everyone], self.run.config.library_names())
+        write_summary(self.out / "summary.md", everyone, self.record, cancelled=self.cancelled, note=self.note,
+                      library_calls=calls)
+        return ordered
+
+    def hard_exit(self) -> None:
+        """The second Ctrl-C: kill the grading processes, record nothing more, keep what is on disk."""
+        got = self.write_lock.acquire(timeout=1.0)  # the main thread (running this) may hold it already
+        self.cancel.set()
+        kill_grading_processes(self.run.sandboxes())
+        for name in list(self.inflight):
+            self.journal.clear(name)
+        if not self.signals.setup:
+            with contextlib.suppress(Exception):  # exiting anyway
+                self.cancelled.extend(sorted(self.inflight))
+                self.write_gradebook()
+        if got:
+            self.write_lock.release()
+        sys.stderr.write("\ninterrupted twice: stopped at once; grades.csv lists what was finished\n"
+                         if not self.signals.setup else "\ninterrupted twice while setting up: nothing was graded\n")
+        sys.stderr.flush()
+        os._exit(130)
