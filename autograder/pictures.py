@@ -84,7 +84,8 @@ class _Proxies(Mapping):
     was called during it as the child reported (an int >= 0; 0 when it said nothing believable),
     the signature of ``starter.checks.instrument.refineF_switched_off`` without its ``fn``, which
     the pictures module calls in its place.  A failure of that call raises ``OffRunFailed`` and is
-    not kept: like the self-check, the picture only goes without that run."""
+    not kept: like the self-check, the picture only goes without that run (but one that ran out of
+    time stops the function in the session, so the question's later calls fail, and the picture)."""
 
     def __init__(self, student, names, seconds: float):
         self.student, self.names = student, tuple(names)
