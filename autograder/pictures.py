@@ -7,7 +7,11 @@ Never scored, never on hidden scenes.  The steps, each in the process allowed to
    ``starter.checks.pictures.public_outputs`` runs with each student function replaced by a call
    through the sandbox session (``Student.outcome``/``map``), so student code runs only in the
    sandboxed child and what it returns arrives as ``core.wire`` data, decoded with the session's
-   size limits, then checked (``_checked``: str names, float arrays, ``LIMITS``).  The
+   size limits, then checked (``_checked``: str names, float arrays, ``LIMITS``).  A run with
+   refineF switched off (Q2's second call of eightpoint) is made in the child too, with the
+   request's ``swap``; the child says how many times refineF was called in it, a count the
+   session believes only as an int in a range (``CallOutcome.refineF_calls``), and the pictures
+   module decides from it, as in the self-check, whether that run is drawn.  The
    question's calls share ``SECONDS`` (times the config's ``time_scale``).  The answer is plain
    JSON: ``{"outputs": <wire>}`` or ``{"error": "figure not drawn: ..."}``; nothing raised there
    reaches the grade.
@@ -36,8 +40,8 @@ import numpy as np
 
 from core import wire
 
-__all__ = ["LIMITS", "MAX_PNG", "NOT_DRAWN", "SECONDS", "PictureFailed", "contract", "decode", "draw_all", "drawn",
-           "figures_of", "finite_measures", "run_public"]
+__all__ = ["LIMITS", "MAX_PNG", "NOT_DRAWN", "SECONDS", "OffRunFailed", "PictureFailed", "contract", "decode",
+           "draw_all", "drawn", "figures_of", "finite_measures", "run_public"]
 
 NOT_DRAWN = "figure not drawn: "
 SECONDS = 10.0          # a question's calls together, in the checks' designed seconds (times time_scale)
@@ -56,6 +60,10 @@ class PictureFailed(Exception):
     """A student call of the picture step that did not return: its sentence is the picture's note."""
 
 
+class OffRunFailed(Exception):
+    """The call with refineF switched off did not return: only that run is left out of the picture."""
+
+
 def contract():
     """The pictures module (``starter.checks.pictures``): ``QUESTIONS``, ``FUNCTIONS``,
     ``public_outputs``, ``draw``, ``Picture``.  Imported when first needed."""
@@ -70,7 +78,14 @@ class _Proxies(Mapping):
 
     Each callable also has ``map(inputs, args=())``: the values of ``fn(*args, *a)`` for each
     tuple ``a`` of ``inputs``, in one sandbox request, so that common arguments (two images)
-    cross the wire once rather than once per call (a pictures module uses it when it is there)."""
+    cross the wire once rather than once per call (a pictures module uses it when it is there);
+    and ``refineF_switched_off(*args, **kwargs)``: ``(value, calls)``, the call made with refineF
+    switched off in the sandbox for it (the request's ``swap``), ``calls`` how many times refineF
+    was called during it as the child reported (an int >= 0; 0 when it said nothing believable),
+    the signature of ``starter.checks.instrument.refineF_switched_off`` without its ``fn``, which
+    the pictures module calls in its place.  A failure of that call raises ``OffRunFailed`` and is
+    not kept: like the self-check, the picture only goes without that run (but one that ran out of
+    time stops the function in the session, so the question's later calls fail, and the picture)."""
 
     def __init__(self, student, names, seconds: float):
         self.student, self.names = student, tuple(names)
@@ -112,8 +127,18 @@ class _Proxies(Mapping):
                                         budget=left)
             return [self._value(name, o) for o in outcomes]
 
+        def switched_off(*args, **kwargs):
+            """``(value, calls)`` of ``name(*args, **kwargs)`` with refineF switched off in the sandbox."""
+            left = self._seconds_left()                # Student.map takes seconds as they are
+            outcome, = self.student.map(name, [(args, kwargs)], seconds=left, budget=left, swap={"refineF": "off"})
+            if not outcome.ok:
+                raise OffRunFailed(name)
+            calls = getattr(outcome, "refineF_calls", None)
+            return outcome.value, (calls if type(calls) is int and calls >= 0 else 0)
+
         call.__name__ = call.__qualname__ = str(name)
         call.map = each
+        call.refineF_switched_off = switched_off
         return call
 
     def __iter__(self):
@@ -127,7 +152,8 @@ def run_public(student, question: str, *, seconds: float = SECONDS, root=None) -
     """The picture step of one question, as JSON-able data for the worker's results file.
 
     ``student``: the plugin's ``Student`` (or ``LocalStudent``): anything with ``outcome(name,
-    *args, seconds=...)`` and ``map(name, inputs, args=..., seconds=..., budget=...)``.  Returns
+    *args, seconds=...)`` and ``map(name, inputs, args=..., seconds=..., budget=..., swap=...)``
+    (``CallOutcome``s; with ``swap``, their ``refineF_calls``).  Returns
     ``{"outputs": wire data}``, ``{"error": "figure not drawn: ..."}``, or ``{}`` when the
     pictures module has no picture of ``question`` (NotImplementedError); never raises for what
     the student's code does (a bug of the picture code is named as the grader's, its type only).

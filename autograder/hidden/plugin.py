@@ -30,6 +30,7 @@ as ``pictures``, for ``autograder.pictures.decode``).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -130,10 +131,12 @@ class LocalStudent(_Calls):
         fn = self.functions.get(function)
         from autograder.sandbox.child import _refine_switch
 
-        with _refine_switch(fn, swap):
-            return self._map(fn, function, inputs, args, figure)
+        with _refine_switch(fn, swap) as run:
+            return self._map(fn, function, inputs, args, figure, run)
 
-    def _map(self, fn, function, inputs, args, figure):
+    def _map(self, fn, function, inputs, args, figure, run=None):
+        """One outcome per input; ``run``: the refine switch's ``Switch`` when refineF is switched
+        off, whose calls during each input become that outcome's ``refineF_calls`` (as the child's)."""
         import numpy as np
 
         from autograder.sandbox import CallOutcome
@@ -144,16 +147,20 @@ class LocalStudent(_Calls):
             return [CallOutcome("missing", message=f"{function} is not defined")] * len(inputs)
         out = []
         for a, k in inputs:
+            counted = run.calls if run is not None else 0
             try:
                 before = _fignums() if figure else set()
                 value = fn(*_copy(list(args), np), *_copy(list(a), np), **_copy(dict(k), np))
                 if figure:
                     value = _figures_points(value, before, np)
-                out.append(CallOutcome("ok", wire.decode(json.loads(json.dumps(wire.encode_returned(value))))))
+                o = CallOutcome("ok", wire.decode(json.loads(json.dumps(wire.encode_returned(value)))))
             except wire.Unsupported as exc:
-                out.append(CallOutcome("malformed", message=str(exc)))
+                o = CallOutcome("malformed", message=str(exc))
             except Exception as exc:  # noqa: BLE001 - the function's failure is the outcome
-                out.append(CallOutcome("exception", message=f"{type(exc).__name__}: {exc}"))
+                o = CallOutcome("exception", message=f"{type(exc).__name__}: {exc}")
+            if run is not None:
+                o = dataclasses.replace(o, refineF_calls=run.calls - counted)
+            out.append(o)
         return out
 
     def call(self, function, *args, seconds=None, **kwargs):

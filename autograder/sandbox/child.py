@@ -20,12 +20,14 @@ The protocol is a session (the grader's side is ``autograder/sandbox/session.py`
   what is reported for an input is the (K, 3) points its 3D figures show, not the returned value.
   With ``swap`` ``{"refineF": "off"}``, refineF is switched off for the duration of the call
   (``core.refine_switch.switched_off``, the switch the public self-check throws too): by every
-  route to it, refineF returns the closest rank-2 matrix to its F, unit norm, without minimising.
+  route to it, refineF returns the closest rank-2 matrix to its F, unit norm, without minimising;
+  each input's record then says how many times refineF was called while it ran (``refineF_calls``).
 - the result pipe (file descriptor N) receives one JSON record per line:
   ``{"event": "loaded", "errors": [{origin, message}], "defined": [names]}``; then per call
   ``{"event": "start", "id"}``, ``{"event": "missing", "id", "message"}`` when the function is not
   there, one ``{"event": "item", "id", "index", "status", "value" | "message", "seconds"}`` per
-  input (status ok, exception, malformed, timeout or skipped) and ``{"event": "end", "id"}``, with
+  input (status ok, exception, malformed, timeout or skipped; with ``swap``, also
+  ``"refineF_calls"``: an int, for an input that ran) and ``{"event": "end", "id"}``, with
   ``"restart": why`` when what the call left behind could not be undone (``_Leaks``): the grader
   then starts a fresh child for the next request.
 - stdout and stderr belong to the student; the grader keeps a bounded copy and trusts neither.
@@ -492,6 +494,16 @@ def _refine_switch(fn, swap):
     return refine_switch.switched_off(fn)
 
 
+def _refine_calls(run):
+    """How many times refineF was called so far in ``run`` (the ``Switch`` a switched-off request
+    entered, or None): an int in [0, 2**31], 0 when its count is not an int."""
+    try:
+        n = vars(run).get("calls", 0) if run is not None else 0
+    except Exception:  # noqa: BLE001 - whatever the student did to it, nothing is counted
+        return 0
+    return min(max(n, 0), 2**31) if type(n) is int else 0
+
+
 def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     """Run one request: ``fn`` on each input within the request's time limits, one record per input."""
     rid = request["id"]
@@ -506,7 +518,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     over = f"used more than {seconds:g} s of CPU time" if clock == "cpu" else f"took more than {seconds:g} s"
     # Left in the finally below, after the timer is disarmed: no alarm may cut the putting back short.
     switch = _refine_switch(fn, request.get("swap"))
-    switch.__enter__()
+    run = switch.__enter__()  # refineF switched off: the Switch counting its calls; else None
     start = now()
     timed_out = exhausted = False
     _arm(seconds, clock)
@@ -524,6 +536,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
                               "on an earlier input")
                 channel.send(record)
                 continue
+            counted = _refine_calls(run)
             try:
                 try:
                     args = list(_copy(shared, np)) + list(wire.decode(item.get("args", {"__tuple__": []})))
@@ -544,6 +557,8 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
                     record.update(status="exception", message=_describe(exc, origins, limit), exhausted=True)
                 except BaseException as exc:  # noqa: BLE001 - SystemExit and friends included
                     record.update(status="exception", message=_describe(exc, origins, limit))
+                if run is not None:
+                    record["refineF_calls"] = min(max(_refine_calls(run) - counted, 0), 2**31)
             except _Timeout:
                 timed_out = True
                 record.update(status="timeout", message=over)

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-__all__ = ["CLOCKS", "LEVELS", "STATUSES", "STOPPED_BY", "WEAK_LEVELS", "CallOutcome", "Isolation", "IsolationRefused", "ResourceLimits",
-           "SessionInfo"]
+__all__ = ["CLOCKS", "LEVELS", "MAX_REFINE_CALLS", "STATUSES", "STOPPED_BY", "WEAK_LEVELS", "CallOutcome", "Isolation",
+           "IsolationRefused", "ResourceLimits", "SessionInfo"]
 
 STATUSES = ("ok", "exception", "timeout", "crashed", "missing", "malformed", "skipped")
 # How a call's time limit is counted: wall-clock seconds, or CPU seconds of the child.
@@ -17,6 +17,9 @@ STOPPED_BY = ("cpu", "wall", "backstop", "budget")
 LEVELS = ("namespaces", "user-namespaces", "uid", "basic")
 # Levels where the code keeps the grader's uid or can read the grader's files: only on request.
 WEAK_LEVELS = ("user-namespaces", "basic")
+# The most calls of refineF a call's outcome may report (``CallOutcome.refineF_calls``): the
+# child's count is the student's process's word, so anything else is not believed.
+MAX_REFINE_CALLS = 1_000_000
 
 
 class IsolationRefused(RuntimeError, ValueError):
@@ -90,7 +93,11 @@ class CallOutcome:
     message: for the other statuses, a short text for the student (the student's exception
     type and message with the line of their code, never a grader traceback); seconds: run time
     (as the child measured it for calls that returned, so informative only); stopped_by: for a
-    "timeout", what stopped it (one of ``STOPPED_BY``), else None.
+    "timeout", what stopped it (one of ``STOPPED_BY``), else None; refineF_calls: for a call made
+    with refineF switched off (the request's ``swap``, see the child), how many times refineF was
+    called during this input, as the child counted it (``core.refine_switch.Switch.calls``): an int
+    in [0, ``MAX_REFINE_CALLS``], None when the call was not switched off or the child said nothing
+    believable.  Reported by the student's process: informative only, never judged.
     """
 
     status: str
@@ -98,6 +105,7 @@ class CallOutcome:
     message: str = ""
     seconds: float | None = None
     stopped_by: str | None = None
+    refineF_calls: int | None = None
 
     @property
     def ok(self) -> bool:

@@ -35,7 +35,7 @@ from pathlib import Path
 from core import wire
 
 from . import script
-from .model import CLOCKS, CallOutcome, Isolation, SessionInfo
+from .model import CLOCKS, MAX_REFINE_CALLS, CallOutcome, Isolation, SessionInfo
 from .script import Runtime
 from .uids import SHARED_TMP_DIRS, files_of_uid, remove_files_of_uid, sweep_uid, usage_of
 
@@ -151,7 +151,8 @@ class Session:
         wall-clock seconds after the request started); budget: no new input is started after it
         (default: seconds; same clock); figure: report the (K, 3) points the function's 3D
         figures show instead of its value; clock: "wall" or "cpu" (default ``limits.clock``);
-        swap: what is switched off for this call only (``{"refineF": "off"}``: refineF, see the child).
+        swap: what is switched off for this call only (``{"refineF": "off"}``: refineF, see the child;
+        each outcome's ``refineF_calls`` then says how many times refineF was called on its input).
         Arguments are plain data (``core.wire``); anything else is a grader bug (ValueError).
         """
         if self.closed:
@@ -315,7 +316,7 @@ class Session:
                 if type(index) is not int or not 0 <= index < n or status not in _ITEM_STATUSES:
                     raise _ProtocolError("a result names an unknown input or status")
                 if index not in found:  # the first word on an input is final
-                    found[index] = self._outcome(rec, request["clock"])
+                    found[index] = self._outcome(rec, request["clock"], "swap" in request)
                     if rec.get("exhausted") is True:
                         request["exhausted"] = True
                 state["current"] = max(state["current"], index + 1)
@@ -378,17 +379,21 @@ class Session:
         rest = CallOutcome("skipped", message=f"not run: {request['function']} stopped on an earlier input")
         return [found.get(k, rest) for k in range(n)]
 
-    def _outcome(self, rec: dict, clock: str) -> CallOutcome:
+    def _outcome(self, rec: dict, clock: str, swapped: bool = False) -> CallOutcome:
+        """One input's item record as a ``CallOutcome``; ``swapped``: the request switched refineF
+        off, so the record's ``refineF_calls`` is read (an int in [0, MAX_REFINE_CALLS], else None)."""
         seconds = rec.get("seconds")
         seconds = float(seconds) if type(seconds) in (int, float) and math.isfinite(seconds) else None
+        calls = rec.get("refineF_calls") if swapped else None
+        calls = calls if type(calls) is int and 0 <= calls <= MAX_REFINE_CALLS else None
         if rec["status"] != "ok":
             return CallOutcome(rec["status"], message=_short(rec.get("message")), seconds=seconds,
-                               stopped_by=clock if rec["status"] == "timeout" else None)
+                               stopped_by=clock if rec["status"] == "timeout" else None, refineF_calls=calls)
         try:
             value = wire.decode(rec.get("value"), self.wire_limits)
         except wire.WireError as exc:
             return CallOutcome("malformed", message=f"the returned value is not plain data ({exc})", seconds=seconds)
-        return CallOutcome("ok", value=value, seconds=seconds)
+        return CallOutcome("ok", value=value, seconds=seconds, refineF_calls=calls)
 
     def _pump(self, until, on_record, done) -> bool | str:
         """Write the pending request and read records until ``done()``: True, or why not
