@@ -310,7 +310,7 @@ def add_grade_cli(subparsers) -> None:
     p.add_argument("--isolation", default="auto", choices=["auto", "namespaces", "user-namespaces", "basic"],
                    help="sandbox level (default: the strongest that works here)")
     p.add_argument("--quiet", action="store_true", help="no line per student")
-    # The same option, in the same words, as the grade command's.
+    # Worded as the grade command's (a test compares them): one option should read the same in both commands.
     p.add_argument("--no-pictures", action="store_true",
                    help="feedback without the figures of each student's results on the public data "
                         "(they cost a few seconds per submission; scores do not change)")
