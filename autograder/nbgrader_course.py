@@ -20,7 +20,7 @@ read or change anything in the course.
 The workflow, in the course folder: ``nbgrader generate_assignment hw4``, collect the submissions
 into ``submitted/<student>/hw4/``, ``nbgrader autograde hw4``, then
 
-    python -m autograder nbgrader-grade COURSE_DIR [--assignment hw4] [--student NAME...]
+    python -m autograder nbgrader-grade COURSE_DIR [--assignment hw4] [--student NAME...] [--no-pictures]
 
 (from the instructor's kit, with the grading settings of ``python -m autograder grade``; that step is
 ``autograder.nbgrader_grade``, this module only builds the course), then
@@ -38,8 +38,10 @@ as ``python -m autograder grade`` and Gradescope; student code runs in the sandb
 folder hidden from it) and writes the points into the gradebook through nbgrader's own API
 (``nbgrader.api.Gradebook``: the ``Grade`` of each hidden-check cell gets ``auto_score``, or
 ``extra_credit`` for an extra-credit question), and the question's feedback into that cell's
-output in ``autograded/``, which ``generate_feedback`` shows.  Nothing the kernel did, to the
-notebook, to its own imports or to the course's files, enters those points.
+outputs in ``autograded/``, which ``generate_feedback`` shows: the verdict, then the unscored
+picture of what the student's functions returned on the public data, as the other channels show
+it (``--no-pictures``: the verdict only).  Nothing the kernel did, to the notebook, to its own
+imports or to the course's files, enters those points.
 
 What nbgrader itself cannot protect: student code in nbgrader's kernel can read and write what
 the instructor can (other students' files, ``gradebook.db``, the course's copies of ``starter/``),
@@ -198,7 +200,7 @@ Written by `python -m autograder nbgrader`.  Run the nbgrader commands in this f
     # put each submission in submitted/<student>/{assignment}/ (with a timestamp.txt)
     nbgrader autograde {assignment}                      # autograded/...: runs the notebooks
     python -m autograder nbgrader-grade COURSE --assignment {assignment}   # from the kit: the hidden checks' points
-    nbgrader generate_feedback {assignment}              # feedback/<student>/{assignment}/*.html
+    nbgrader generate_feedback {assignment}              # feedback/<student>/{assignment}/*.html (verdicts, pictures)
     nbgrader export                            # grades.csv
 
 The hidden-check cells carry the points of the autograded questions; the kit's sandboxed grader

@@ -5,7 +5,10 @@ folder and writes the points into nbgrader's gradebook.
 ``autograder.run.GradingRun`` (the course folder hidden from student code, the canary first)
 grades every ``submitted/<student>/<assignment>``; nbgrader is used only to write what the run
 found into ``gradebook.db`` (``nbgrader.api.Gradebook``) and the feedback into the autograded
-notebooks.  Building the course is ``autograder.nbgrader_course``'s job.
+notebooks: each hidden-check cell's output is its question's verdict, then (unless ``pictures`` is
+off) the unscored figure of what the student's functions returned on the public data
+(``autograder.nbgrader_pictures``), so that ``generate_feedback`` shows both.  Building the course
+is ``autograder.nbgrader_course``'s job.
 """
 
 from __future__ import annotations
@@ -86,9 +89,15 @@ def _students(course: Path, assignment: str, students) -> list[str]:
     return list(students)
 
 
-def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict) -> None:
-    """The kit's feedback as the output of each hidden-check cell of the autograded notebooks."""
+def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict, figures=None) -> None:
+    """The kit's feedback as the outputs of each hidden-check cell of the autograded notebooks: the
+    question's verdict, then its entry of ``figures`` (question -> ``Picture`` or "figure not
+    drawn: ...", ``autograder.pictures.figures_of``) when it has one."""
     import nbformat
+
+    from .nbgrader_pictures import cell_outputs
+
+    figures = figures or {}
 
     for path in sorted((course / "autograded" / student / assignment).glob("*.ipynb")):
         nb = nbformat.read(path, as_version=4)
@@ -96,16 +105,14 @@ def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict)
         for cell in nb.cells:
             q = _question_of_grade_id(_nbgrader(cell).get("grade_id", ""))
             if q is not None and cell.cell_type == "code":
-                # A stream output is shown as a terminal would (nbconvert turns ANSI escapes into markup).
-                text = for_terminal(verdicts[q.id][1])
-                cell.outputs = [nbformat.v4.new_output("stream", name="stdout", text=text + "\n")]
+                cell.outputs = cell_outputs(verdicts[q.id][1], figures.get(q.id))
                 changed = True
         if changed:
             nbformat.write(nb, path)
 
 
 def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=None, config=None,
-                 isolation: str = "auto", progress=None, log=print) -> dict:
+                 isolation: str = "auto", pictures: bool = True, progress=None, log=print) -> dict:
     """Grade every submission of ``assignment`` with the kit's grader and write the points into
     the course's gradebook; run after ``nbgrader autograde``.  Returns student -> SubmissionResult.
 
@@ -114,7 +121,8 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
     folder hidden).  Then, through ``nbgrader.api.Gradebook``, every hidden-check cell's ``Grade``
     gets the question's points as ``auto_score`` (extra credit: ``auto_score`` 0 and the points as
     ``extra_credit``), replacing whatever autograde recorded, and the question's feedback becomes
-    that cell's output in ``autograded/`` (what ``generate_feedback`` shows).
+    that cell's output in ``autograded/`` (what ``generate_feedback`` shows), followed by the
+    question's picture of the public data when ``pictures``.
 
     First the canary (``autograder.canary.check``): the answer key, graded in the very sandbox and
     with the same hidden inputs, must get every point, or no student is graded.
@@ -125,6 +133,9 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
     students : names to grade (default: every submitted folder of ``assignment``).
     config : ``GradingConfig`` (default: ``load_config()``, as ``python -m autograder grade``).
     isolation : the sandbox level ("auto": the strongest that works here).
+    pictures : run the unscored picture step after each submission's checks and show each
+        question's figure (or why there is none) under its verdict; False: text feedback only, a
+        few seconds less per submission, the same scores.
     progress : optional callable(student, result) called after each student.
     log : callable(str) given one line when the canary passed (default ``print``; None: silent).
 
@@ -140,6 +151,7 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
     from nbgrader.api import MissingEntry
 
     from .config import load_config
+    from .pictures import figures_of
     from .run import GradingRun
 
     course = Path(course).resolve()
@@ -156,7 +168,7 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
             except MissingEntry:
                 raise ValueError(f"students: {student} has no autograded submission of {assignment} in "
                                  f"the gradebook; run nbgrader autograde first") from None
-    with GradingRun(config, hide=[course], isolation=isolation) as run:
+    with GradingRun(config, hide=[course], isolation=isolation, pictures=pictures) as run:
         report = run.open().canary_report  # raises CanaryFailed: nothing graded, nothing written
         if log is not None:
             log(f"canary: the answer key got {report.score:g} / {report.max_score:g} in this sandbox "
@@ -181,7 +193,9 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
                         grade.manual_score = None
                         grade.needs_manual_grade = False
                 gb.db.commit()
-            _write_feedback(course, assignment, student, verdicts)
+            # Checked (and drawn if need be) here; a failed grading has no pictures to show.
+            figures = {} if result.failure else figures_of(result.pictures)
+            _write_feedback(course, assignment, student, verdicts, figures)
             if progress is not None:
                 progress(student, result)
     return results
@@ -272,7 +286,8 @@ def _grade_cli(args) -> int:
         print(for_terminal(f"{student}: {result.score:g} points (base {result.max_score:g}, extra credit on top){why}"))
 
     results = grade_course(args.course, assignment=args.assignment, students=args.student, config=config,
-                           isolation=args.isolation, progress=None if args.quiet else report)
+                           isolation=args.isolation, pictures=not args.no_pictures,
+                           progress=None if args.quiet else report)
     print(f"{len(results)} submissions scored into {Path(args.course) / 'gradebook.db'}; "
           f"next: nbgrader generate_feedback {args.assignment} && nbgrader export")
     return 0
@@ -295,4 +310,8 @@ def add_grade_cli(subparsers) -> None:
     p.add_argument("--isolation", default="auto", choices=["auto", "namespaces", "user-namespaces", "basic"],
                    help="sandbox level (default: the strongest that works here)")
     p.add_argument("--quiet", action="store_true", help="no line per student")
+    # Worded as the grade command's (a test compares them): one option should read the same in both commands.
+    p.add_argument("--no-pictures", action="store_true",
+                   help="feedback without the figures of each student's results on the public data "
+                        "(they cost a few seconds per submission; scores do not change)")
     p.set_defaults(func=_grade_cli)

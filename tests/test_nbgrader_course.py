@@ -5,7 +5,8 @@ The end-to-end test builds a course of q1, q2 and q3 (q3 borrows q2's eightpoint
 and autogrades three students: the answer key, a student whose untouched q1 has one extra cell
 that appends a fake judge to the course's autograder package and patches numpy (the attack that
 used to give 90/100), and an untouched release graded after it.  Set HW4_NBGRADER_ALL=1 to use
-every notebook (several minutes).
+every notebook (several minutes).  Its feedback HTML shows each question's picture of the public
+data under the verdict (the key's), or why there is none (the untouched release's stubs raise).
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ import hashlib
 import importlib.util
 import json
 import os
+import re
+from html.parser import HTMLParser
 from pathlib import Path
 
 import nbformat
@@ -154,6 +157,17 @@ def test_cli_registers_the_nbgrader_commands():
     assert args.func is nc._cli and args.notebooks == ["q2_eightpoint"] and args.selftest and not args.force
     args = build_parser().parse_args(["nbgrader-grade", "course", "--student", "s1", "s2"])
     assert args.func is nc._grade_cli and args.assignment == "hw4" and args.student == ["s1", "s2"]
+    assert not args.no_pictures and build_parser().parse_args(["nbgrader-grade", "course", "--no-pictures"]).no_pictures
+
+
+def test_no_pictures_says_the_same_in_both_grading_commands():
+    from autograder.__main__ import build_parser
+
+    def help_of(command):
+        sub = next(a for a in build_parser()._actions if getattr(a, "choices", None) and command in a.choices)
+        return next(a.help for a in sub.choices[command]._actions if "--no-pictures" in a.option_strings)
+
+    assert help_of("nbgrader-grade") == help_of("grade")
 
 
 def test_scoring_needs_the_courses_own_secret_and_a_gradebook(tmp_path, monkeypatch):
@@ -183,7 +197,7 @@ def test_the_canary_runs_before_any_student_and_a_failed_one_refuses(tmp_path, m
         return canary.CanaryReport(75.0, 75.0, 0.5, box.isolation.as_dict())
 
     monkeypatch.setattr(canary, "check", fake_check)
-    assert nc.grade_course(course, config=quick_config(), log=lines.append) == {}
+    assert nc.grade_course(course, config=quick_config(), pictures=False, log=lines.append) == {}
     assert len(seen) == 1 and lines and lines[0].startswith("canary: the answer key got 75 / 75")
 
     def failing(grade, box, **kw):
@@ -191,7 +205,7 @@ def test_the_canary_runs_before_any_student_and_a_failed_one_refuses(tmp_path, m
 
     monkeypatch.setattr(canary, "check", failing)
     with pytest.raises(ValueError, match="on purpose"):
-        nc.grade_course(course, config=quick_config(), log=lines.append)
+        nc.grade_course(course, config=quick_config(), pictures=False, log=lines.append)
 
 
 @needs_nbgrader
@@ -202,6 +216,76 @@ def test_course_config_runs_nothing_of_the_kit(tmp_path, grading_settings):
     config = PyFileConfigLoader("nbgrader_config.py", str(course)).load_config()
     assert "autograde_preprocessors" not in config.Autograde
     assert config.CourseDirectory.root == str(course.resolve())
+
+
+# ------------------------------------------------------------------------------------------------
+# pictures in the feedback
+
+
+class _Images(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.found = []
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "img":
+            self.found.append(dict(attrs))
+
+
+def images(page: str) -> list[dict]:
+    """The attributes of every ``<img>`` of ``page`` whose source is an embedded PNG."""
+    parser = _Images()
+    parser.feed(page)
+    parser.close()
+    return [a for a in parser.found if (a.get("src") or "").startswith("data:image/png;base64,")]
+
+
+def hidden_cell(page: str, qid: str) -> str:
+    """The part of a feedback page from ``qid``'s hidden-check cell (nbgrader's anchor) to the next cell."""
+    start = page.index(f'name="hidden_{qid.replace(".", "_")}"')
+    end = page.find('<div class="cell ', start)
+    return page[start:] if end < 0 else page[start:end]
+
+
+def tiny_png() -> bytes:
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.new("RGB", (4, 3), (200, 80, 0)).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+@needs_nbgrader
+def test_a_picture_output_renders_as_an_image_with_its_alt_text_and_quotes_stay_text():
+    """The outputs nbgrader-grade writes, through nbconvert's classic template (the base of
+    nbgrader's feedback template): the PNG embedded, the alt text as the img's alt, and markup or
+    terminal escapes in an alt text or a "figure not drawn" sentence shown, never obeyed."""
+    import base64
+
+    from nbconvert import HTMLExporter
+
+    from autograder.nbgrader_pictures import cell_outputs
+    from autograder.pictures import contract
+
+    png = tiny_png()
+    alt = 'epipolar lines "><script>alert(1)</script> & \x1b[31mred\u202e'
+    nb = nbformat.v4.new_notebook()
+    drawn, missing = nbformat.v4.new_code_cell("0.0"), nbformat.v4.new_code_cell("0.0")
+    drawn.outputs = cell_outputs("Q2 eightpoint: 10 / 10 points", contract().Picture("Q2", "a title", png, alt, {}))
+    missing.outputs = cell_outputs("Q3.1 essentialMatrix: 0 / 5 points",
+                                   "figure not drawn: <img src=x onerror=alert(2)>\x1b]8;;http://x\x07link")
+    nb.cells = [drawn, missing]
+    nbformat.validate(nb)
+    page, _ = HTMLExporter(template_name="classic").from_notebook_node(nb)
+
+    [img] = images(page)
+    assert base64.b64decode(img["src"].split(",", 1)[1]) == png
+    assert img["alt"] == 'epipolar lines "><script>alert(1)</script> & red\\u202e'  # data: the parser gives it back as text
+    assert drawn.outputs[1]["data"]["text/plain"] == img["alt"]
+    assert "<script>alert" not in page and "<img src=x" not in page and "\x1b" not in page
+    assert "figure not drawn: &lt;img src=x onerror=alert(2)&gt;link" in page and "a title" in page
 
 
 # ------------------------------------------------------------------------------------------------
@@ -285,6 +369,17 @@ def test_nbgrader_end_to_end_with_a_tampering_student(tmp_path, grading_settings
     feedback = (course / "feedback" / "a-key" / "hw4" / "q2_eightpoint.html").read_text()
     assert f"Q2 {q2.title}: {q2.points:g} / {q2.points:g} points" in feedback
     assert "hidden checks" in (course / "feedback" / "c-untouched" / "hw4" / "q2_eightpoint.html").read_text()
+    # Under each verdict, the picture of the public data: the key's drawn, with its text as alt;
+    # the untouched stubs raise there, so the verdict says why there is no figure instead.
+    [key_q2] = images(hidden_cell(feedback, "Q2"))
+    assert "epipolar" in key_q2["alt"]
+    for qid in qids:
+        page = (course / "feedback" / "a-key" / "hw4" / f"{question(qid).notebook}.html").read_text()
+        [img] = images(hidden_cell(page, qid))
+        assert img["alt"].strip() and "figure not drawn" not in hidden_cell(page, qid)
+        for student in ("b-tamper", "c-untouched"):
+            page = (course / "feedback" / student / "hw4" / f"{question(qid).notebook}.html").read_text()
+            assert "figure not drawn: " in hidden_cell(page, qid) and not images(hidden_cell(page, qid)), (student, qid)
 
     nc.run_nbgrader(course, "export")
     rows = {r["student_id"]: r for r in csv.DictReader((course / "grades.csv").open())}
