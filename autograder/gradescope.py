@@ -64,7 +64,8 @@ What students see (Gradescope's test visibility, per group, set at build time wi
 
 - pictures: after each question's tests, one unscored test with the picture of what the student's
   functions returned on the public data (``autograder.gradescope_pictures``: html output, the
-  figure as a ``data:`` image), shown no earlier than any test of its question.
+  figure as a ``data:`` image), shown no earlier than any test of its question; a bundle built
+  with ``--no-pictures`` has none.
 
 The summary always shows the base points and the extra credit apart ("Base points: 75 / 75",
 "Extra credit: 15 / 15"); Gradescope's total is the top-level score, extra credit included.
@@ -265,9 +266,16 @@ def hidden_inputs_file(scratch: Path, key: Path | None = None) -> list[tuple[str
     return [(f"{HIDDEN_INPUTS_DIR}/{p.name}", p) for p in sorted(folder.iterdir()) if p.is_file()]
 
 
+def _is_dev(scratch: Path) -> bool:
+    """Whether the configuration written into ``scratch`` grades with the public development secret."""
+    from .config import load_config
+
+    return load_config(scratch / CONFIG_NAME, environ={}).is_dev
+
+
 def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit: int = DEFAULT_TIME_LIMIT,
                  venv: str = DEFAULT_VENV, allow_dev_secret: bool = False, visibility: dict | None = None,
-                 time_factor: float = DEFAULT_TIME_FACTOR) -> Path:
+                 time_factor: float = DEFAULT_TIME_FACTOR, pictures: bool = True) -> Path:
     """Write Gradescope's autograder zip to ``out`` and return its path.
 
     Parameters
@@ -282,6 +290,8 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
         tests (module docstring); missing groups take ``DEFAULT_VISIBILITY``.
     time_factor : the share of each check's designed time limit a call gets at the reference
         speed (scaled on Gradescope by the container's measured slowness).
+    pictures : after each question's tests, the unscored picture of what the student's functions
+        did on the public data (a few seconds a submission); False: text feedback only.
 
     Raises
     ------
@@ -310,7 +320,8 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
         info = {"built": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "time_limit": time_limit, "venv": venv,
                 "python_built_with": sys.version.split()[0], "files": len(members) + len(_SCRIPTS) + 1,
                 "development_secret": allow_dev_secret and _is_dev(scratch), "visibility": shown,
-                "time_factor": float(time_factor), "reference_calibration": REFERENCE_CALIBRATION}
+                "time_factor": float(time_factor), "pictures": bool(pictures),
+                "reference_calibration": REFERENCE_CALIBRATION}
         fd, partial = tempfile.mkstemp(dir=out.parent, prefix=".autograder-", suffix=".zip")
         os.close(fd)
         try:
@@ -353,7 +364,7 @@ def _cli(args) -> int:
         group, _, when = item.partition("=")
         visibility[group.strip()] = when.strip()
     path = build_bundle(args.out, time_limit=args.time_limit, venv=args.venv, allow_dev_secret=args.allow_dev_secret,
-                        visibility=visibility, time_factor=args.time_factor)
+                        visibility=visibility, time_factor=args.time_factor, pictures=not args.no_pictures)
     if args.allow_dev_secret:
         print("warning: this bundle may grade with the public development secret: try it out, do not grade with it")
     print(f"wrote {path} ({path.stat().st_size / 2**20:.1f} MB): upload it as the Gradescope autograder")
@@ -382,6 +393,9 @@ def add_cli(subparsers) -> None:
     p.add_argument("--time-factor", type=float, default=DEFAULT_TIME_FACTOR,
                    help=f"share of each check's designed time limit a call gets at the reference speed "
                         f"(default {DEFAULT_TIME_FACTOR}; scaled on Gradescope by the container's measured slowness)")
+    p.add_argument("--no-pictures", action="store_true",
+                   help="no picture tests: feedback without the figures of each student's results on the public "
+                        "data (they cost a few seconds per submission; scores do not change)")
     actions = p.add_subparsers(dest="action")
     r = actions.add_parser("run", help="grade <root>/submission into <root>/results/results.json")
     r.add_argument("--root", default=os.environ.get("HW4_AUTOGRADER_ROOT", "/autograder"),

@@ -106,7 +106,8 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
         result = SubmissionResult.failed(why, execution_time=time.monotonic() - start)
     else:
         try:
-            result = _grade(path, root, settings["time_factor"], timing, staff, deadline=_deadline(start))
+            result = _grade(path, root, settings["time_factor"], timing, staff, deadline=_deadline(start),
+                            pictures=settings["pictures"])
         except Exception:  # noqa: BLE001 - whatever broke, the student still gets a result
             traceback.print_exc(file=sys.stdout)
             result = SubmissionResult.failed("the autograder hit an internal error; the course staff can see its log",
@@ -128,8 +129,9 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
 
 
 def _bundle_settings(source: Path) -> dict:
-    """Visibility and time factor from ``source/BUNDLE.json``, each checked; defaults otherwise."""
-    out = {"visibility": dict(DEFAULT_VISIBILITY), "time_factor": DEFAULT_TIME_FACTOR}
+    """Visibility, time factor and pictures (a bool) from ``source/BUNDLE.json``, each checked;
+    defaults otherwise."""
+    out = {"visibility": dict(DEFAULT_VISIBILITY), "time_factor": DEFAULT_TIME_FACTOR, "pictures": True}
     try:
         info = json.loads((source / "BUNDLE.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -142,6 +144,8 @@ def _bundle_settings(source: Path) -> dict:
     factor = info.get("time_factor", DEFAULT_TIME_FACTOR)
     if isinstance(factor, (int, float)) and not isinstance(factor, bool) and 0 < factor <= 10:
         out["time_factor"] = float(factor)
+    if info.get("pictures") is False:
+        out["pictures"] = False
     return out
 
 
@@ -208,12 +212,6 @@ def _bundled_inputs(source: Path, config):
         return None
 
 
-def _is_dev(scratch: Path) -> bool:
-    from .config import load_config
-
-    return load_config(scratch / CONFIG_NAME, environ={}).is_dev
-
-
 def _deadline(start: float) -> float | None:
     """``time.monotonic()`` by which run_autograder's ``timeout`` stops this process (it passes its limit
     as HW4_GRADE_TIME_LIMIT), less what writing results.json needs; None when no limit was passed."""
@@ -226,7 +224,8 @@ def _deadline(start: float) -> float | None:
 
 
 def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
-           timing: dict | None = None, staff: dict | None = None, deadline: float | None = None) -> SubmissionResult:
+           timing: dict | None = None, staff: dict | None = None, deadline: float | None = None,
+           pictures: bool = True) -> SubmissionResult:
     from . import canary
     from .config import load_config
     from .hidden.inputs import build_hidden_inputs
@@ -257,9 +256,10 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
     key = source / KEY_NAME
     # The run records the bundle's settings (``config``); it grades with this container's limits.
     # Hidden: all of root (the grader, the results, Gradescope's metadata, the answer key).
-    # pictures: the submission's result carries the pictures of the public data (not the canary's).
+    # pictures: the submission's result carries the pictures of the public data (not the canary's),
+    # unless the bundle was built without them.
     with GradingRun(config, hidden_inputs=hidden, hide=[root], limits=limits, kit_root=source, deadline=deadline,
-                    key=key if key.is_file() else None, pictures=True) as run:
+                    key=key if key.is_file() else None, pictures=pictures) as run:
         # Wall-clock s, grown by 1 / share, ending before the platform's kill.
         timing["session_budget"] = round(run.session_budget(), 1)
         try:

@@ -21,7 +21,7 @@ from autograder import pictures as step
 from autograder.hidden.plugin import LocalStudent
 from tests import picture_standin
 from tests.test_browser_widgets import CHROMIUM_ARGS, chromium_path
-from tests.test_gradescope import bundle  # noqa: F401 - the Gradescope bundle fixture (built once a session)
+from tests.test_gradescope import build_test_bundle
 from tests.test_feedback_pictures import HOSTILE, good_triangulate, hostile_eightpoint, result_with
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -100,6 +100,12 @@ def test_gradescope_results_json_pictures_in_a_browser(browser, tmp_path, layout
                     + "".join(f"<section>{h}</section>" for h in html) + "</body></html>")
     shown = open_page(browser, page)
     check_shown(shown, 1)
+
+
+@pytest.fixture(scope="module")
+def bundle(tmp_path_factory):
+    """A Gradescope bundle built with the pictures (the default)."""
+    return build_test_bundle(tmp_path_factory.mktemp("bundle"))
 
 
 def test_run_autograder_results_json_carries_the_pictures(browser, bundle, tmp_path):

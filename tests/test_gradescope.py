@@ -36,10 +36,8 @@ SECRET = "gradescope-test-secret-918273645"
 SEED_LABELS = ("temple-1", "temple-2", "car", "bundle", "matching", "essential", "multiview")
 
 
-@pytest.fixture(scope="session")
-def bundle(tmp_path_factory) -> Path:
-    folder = tmp_path_factory.mktemp("bundle")
-    # The instructor's settings at build time: the kit's quick scenes (fast tests), our secret.
+def build_test_bundle(folder: Path, **options) -> Path:
+    """A bundle built with the kit's quick scenes (fast tests) and our secret, as an instructor's settings."""
     quick = quick_config(time_scale=1.0)
     settings = {"secret": SECRET, "temples": [dataclasses.asdict(t) for t in quick.temples],
                 "match_points": quick.match_points, "ba_points": quick.ba_points, "car_times": quick.car_times}
@@ -49,10 +47,17 @@ def bundle(tmp_path_factory) -> Path:
     try:
         for k, v in env.items():
             os.environ.pop(k, None) if v is None else os.environ.__setitem__(k, v)
-        return gradescope.build_bundle(folder / "autograder.zip", time_limit=300)
+        return gradescope.build_bundle(folder / "autograder.zip", time_limit=300, **options)
     finally:
         for k, v in old.items():
             os.environ.pop(k, None) if v is None else os.environ.__setitem__(k, v)
+
+
+@pytest.fixture(scope="session")
+def bundle(tmp_path_factory) -> Path:
+    # Text feedback only: the picture tests cost a few seconds a run, and this file's runs are
+    # about grading; tests/test_feedback_browser.py grades with a bundle that draws them.
+    return build_test_bundle(tmp_path_factory.mktemp("bundle"), pictures=False)
 
 
 @pytest.fixture(scope="session")
@@ -422,6 +427,18 @@ def test_results_json_uses_the_bundled_inputs_and_calibrated_limits(gradescope_d
     record = data["extra_data"]["configuration"]
     assert re.fullmatch(r"[0-9a-f]{12}", record["draw"]) and record["secret_fingerprint"] and record["isolation"]
     assert SECRET not in json.dumps(data)
+    assert not [t["name"] for t in data["tests"] if " picture: " in t["name"]]  # built with pictures=False
+
+
+@pytest.mark.slow
+def test_a_bundle_of_the_development_secret_says_so_and_records_its_options(tmp_path, monkeypatch):
+    # (The pictures' default, on, is graded in tests/test_feedback_browser.py.)
+    monkeypatch.delenv("HW4_GRADER_SECRET", raising=False)
+    monkeypatch.delenv("HW4_GRADER_CONFIG", raising=False)
+    path = gradescope.build_bundle(tmp_path / "try.zip", allow_dev_secret=True, pictures=False, time_factor=2.0)
+    with zipfile.ZipFile(path) as zf:
+        info = json.loads(zf.read("BUNDLE.json"))
+    assert info["development_secret"] is True and info["pictures"] is False and info["time_factor"] == 2.0
 
 
 @pytest.mark.slow
