@@ -382,7 +382,8 @@ def test_an_exception_carrying_the_inputs_is_quoted_as_type_place_and_a_short_li
         corpus.replace_function(nbs, function, _DUMPING.format(function=function))
     for stem, nb in nbs.items():
         nbformat.write(nb, folder / f"{stem}.ipynb")
-    record, = grade_batch([folder], tmp_path / "out", config=config, progress=False, pictures=False, limits=LIMITS)
+    record, = grade_batch([folder], tmp_path / "out", config=config, progress=False, pictures=False, canary=False,
+                          limits=LIMITS)
     text = (record.folder / "results.json").read_text() + (record.folder / "feedback.md").read_text()
     assert record.scores["Q2"] == record.scores["Q3.1"] == record.scores["Q3.2"] == 0
     assert "RuntimeError" in text and "dump" in text
@@ -439,7 +440,8 @@ def test_a_grader_bug_gives_a_failed_result_and_the_batch_goes_on(tmp_path, monk
         raise RuntimeError("a bug in the grader")
 
     monkeypatch.setattr(GradingRun, "grade", broken)
-    records = grade_batch(subs, tmp_path / "out", config=config, progress=False, pictures=False, limits=LIMITS)
+    records = grade_batch(subs, tmp_path / "out", config=config, progress=False, pictures=False, canary=False,
+                          limits=LIMITS)
     assert [r.failure is not None for r in records] == [True, True]
     for r in records:
         assert "internal error" in (r.folder / "feedback.md").read_text()

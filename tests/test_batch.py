@@ -167,7 +167,8 @@ def test_sigkill_mid_batch_then_resume_regrades_the_one_in_flight(tmp_path, conf
     live_folder = Path(live.stdout.readline().strip() or "no-folder")
     try:
         assert live_folder.name.startswith(f"hw4-hidden-{live.pid}-"), live_folder
-        records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=False, limits=LIMITS)
+        records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=False,
+                              canary=False, limits=LIMITS)
         # ... until the next batch swept them; a live grader's folder stays.
         assert not list(Path(tempfile.gettempdir()).glob(f"hw4-*-{proc.pid}-*"))
         assert live_folder.is_dir() and (live_folder / "hidden-inputs.pickle").is_file()
@@ -269,7 +270,7 @@ def _interrupt(tmp_path, config_file, signals: int, transposed: float, *, pictur
     assert recorded != set(names)  # it did stop
     assert inflight(out) == set()  # a cancelled run is no strike against the student
     records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=pictures, jobs=2,
-                          limits=LIMITS)
+                          canary=False, limits=LIMITS)
     assert {r.name: r.score for r in records} == expected
     assert all(r.skipped == (r.name in recorded) for r in records)
     return stderr
