@@ -14,7 +14,9 @@ keeps them) are executed in one fresh namespace.  Then
   (for bundle adjustment both sides also get the public scene's problem: ``prepared_for``);
 
 must agree, and when both name known mistakes they must name the same ones.  Hostile
-submissions (exits, bombs, loops: the sandbox's business) are left out.
+submissions (exits, bombs, loops: the sandbox's business) are left out.  A program is judged on
+the functions its difference from the key reaches (the secret sweep's rule); what it shares with
+the key is judged once, with the key.
 """
 
 from __future__ import annotations
@@ -51,8 +53,25 @@ _NAME_TO_CODE = {name: code for code, (name, _) in KNOWN_MISTAKES.items()}
 
 def program(name: str) -> dict:
     """The functions a corpus submission defines, executed here as the grader keeps its statements."""
-    namespace = corpus.program_namespace(name, FUNCTIONS)
+    return functions_of(corpus.program_namespace(name, FUNCTIONS))
+
+
+def functions_of(namespace: dict) -> dict:
     return {f: namespace[f] for f in (*FUNCTIONS, "plot_3d_keypoint_video") if callable(namespace.get(f))}
+
+
+KEY = "key_full_marks"
+
+
+def judged_apart(namespace: dict, key: dict) -> list[str]:
+    """The functions whose judgment can differ from the key's: those of the hidden files the
+    program's difference from the key reaches (the secret sweep's rule, ``_concepts_reached``).
+    The others are the key's own code on the same inputs, so both sides judge them as they judge
+    the key's, which the key's program checks."""
+    from test_secret_sweep import _concepts_reached, _hidden_files
+
+    reached = set(_concepts_reached(namespace, key, _hidden_files()))
+    return [f for f, (concept, _) in FUNCTIONS.items() if concept in reached]
 
 
 @pytest.fixture(scope="module")
@@ -169,13 +188,29 @@ def assert_agree(hidden, functions: dict, function: str, where: str) -> None:
 
 # --------------------------------------------------------------------------------- the test
 
+@pytest.fixture(scope="module")
+def key_namespace() -> dict:
+    return corpus.program_namespace(KEY, FUNCTIONS)
+
+
 @pytest.mark.parametrize("name", PROGRAMS)
-def test_self_checks_and_hidden_tests_agree_on_the_corpus(hidden, name):
-    functions = program(name)
-    for function in FUNCTIONS:
+def test_self_checks_and_hidden_tests_agree_on_the_corpus(hidden, key_namespace, name):
+    namespace = key_namespace if name == KEY else corpus.program_namespace(name, FUNCTIONS)
+    functions = functions_of(namespace)
+    for function in FUNCTIONS if name == KEY else judged_apart(namespace, key_namespace):
         assert_agree(hidden, functions, function, name)
 
 
-def test_programs_are_the_corpus_submissions():
-    assert set(FUNCTIONS) <= set(program("key_full_marks"))
+def test_programs_are_the_corpus_submissions(key_namespace):
+    assert KEY in PROGRAMS  # every function the others share with it is judged with the key's program
+    assert set(FUNCTIONS) <= set(functions_of(key_namespace))
+
+
+def test_a_program_is_judged_apart_on_what_its_difference_reaches(key_namespace):
+    assert judged_apart(key_namespace, key_namespace) == []
+    transposed = corpus.program_namespace("transposed_F_loses_Q2", FUNCTIONS)
+    assert judged_apart(transposed, key_namespace) == ["eightpoint"]
+    # triangulate is called by findM2 and compute3D_pts: their judgments are made again too
+    crashed = corpus.program_namespace("syntax_error_in_triangulate_cell_loses_Q3_2_Q3_3_Q4_2", FUNCTIONS)
+    assert {"triangulate", "findM2", "compute3D_pts"} <= set(judged_apart(crashed, key_namespace))
     assert "essentialMatrix" not in program("missing_essentialMatrix_loses_Q3_1_and_Q3_3")
