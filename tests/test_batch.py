@@ -235,8 +235,8 @@ def test_a_submission_in_flight_at_two_grader_deaths_is_recorded_as_failed(tmp_p
     assert dict((r[0], r[1]) for r in gradebook(out)) == {"a_key": "90", "poison": "0"}
     assert "poison" in (out / "summary.md").read_text() and inflight(out) == set()
     # A plain resume does not try it again (it would kill the grader); naming it does.
-    records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=False, limits=LIMITS,
-                          regrade=["poison"])
+    records = grade_batch(subs, out, config=load_config(config_file), progress=False, pictures=False, canary=False,
+                          limits=LIMITS, regrade=["poison"])
     assert {r.name: (r.skipped, r.score) for r in records} == {"a_key": (True, FULL), "poison": (False, FULL)}
 
 
