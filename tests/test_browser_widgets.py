@@ -270,11 +270,19 @@ def test_clicking_image_1_draws_its_epipolar_line_in_image_2(jupyterlab):
                     0.5 * min(a["right"] - a["left"], a["bottom"] - a["top"])
             assert states[0]["line"] != states[1]["line"]
 
-            # the static PNG under the widget follows the picks, and is what gets saved
+            # the static PNG under the widget follows the picks, and is what gets saved.  Each pick
+            # redraws it, the last one possibly a moment after its line (a CI run once saved the
+            # second pick's PNG while the first's was taken as the latest): wait until it changed
+            # and then held still for 1.5 s.
             deadline = time.monotonic() + 30
-            while _snapshot_src(page) == first_png and time.monotonic() < deadline:
+            latest_png, still_since = first_png, time.monotonic()
+            while time.monotonic() < deadline:
                 page.wait_for_timeout(200)
-            latest_png = _snapshot_src(page)
+                now = _snapshot_src(page)
+                if now != latest_png:
+                    latest_png, still_since = now, time.monotonic()
+                elif latest_png != first_png and time.monotonic() - still_since > 1.5:
+                    break
             assert latest_png != first_png
             page.evaluate("window.jupyterapp.commands.execute('docmanager:save')")
             deadline = time.monotonic() + 30
@@ -285,11 +293,11 @@ def test_clicking_image_1_draws_its_epipolar_line_in_image_2(jupyterlab):
                         if "image/png" in o.get("data", {})]
                 if pngs:
                     saved = pngs[-1]
-                    if latest_png.endswith(saved.strip()):
+                    if _snapshot_src(page).endswith(saved.strip()):
                         break
                 page.wait_for_timeout(300)
             assert saved is not None, "the saved notebook has no PNG output"
-            assert latest_png.endswith(saved.strip())
+            assert _snapshot_src(page).endswith(saved.strip()), "the saved PNG is not the one shown"
             assert base64.b64decode(saved)[:4] == b"\x89PNG"
         finally:
             browser.close()
