@@ -133,8 +133,8 @@ class _Proxies(Mapping):
             outcome, = self.student.map(name, [(args, kwargs)], seconds=left, budget=left, swap={"refineF": "off"})
             if not outcome.ok:
                 raise OffRunFailed(name)
-            calls = getattr(outcome, "refineF_calls", None)
-            return outcome.value, (calls if type(calls) is int and calls >= 0 else 0)
+            # The session already read the child's count as an int in range, or None (not believed).
+            return outcome.value, outcome.refineF_calls or 0
 
         call.__name__ = call.__qualname__ = str(name)
         call.map = each
