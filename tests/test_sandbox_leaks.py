@@ -12,10 +12,8 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import stat
 import subprocess
 import sys
-import tempfile
 import textwrap
 from pathlib import Path
 
@@ -51,10 +49,9 @@ def run(argv, *, timeout=900) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def public_python():
     """A venv of the public /usr/bin/python3 (the uid level refuses a Python under /root)."""
-    from test_fail_closed import public_venv
+    from test_fail_closed import public_folder, public_venv
 
-    root = Path(tempfile.mkdtemp(prefix="hw4-public-", dir="/var/tmp"))
-    os.chmod(root, 0o755)
+    root = public_folder()
     try:
         yield public_venv(root / "venv")
     finally:
