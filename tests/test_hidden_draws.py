@@ -68,6 +68,27 @@ def test_one_salt_draws_the_same_scenes_twice_and_another_salt_others(batch, dra
     assert not np.allclose(_car(a), _car(batch))
 
 
+def test_a_grading_process_hands_the_same_code_a_copy_of_its_draw_and_other_code_its_own(batch, monkeypatch):
+    from autograder.hidden import plugin
+
+    monkeypatch.setattr(plugin, "_drawn", {})
+    monkeypatch.setattr(plugin, "_DRAWS_KEPT", 2)
+    made = []
+    real = inputs.draw
+    monkeypatch.setattr(inputs, "draw", lambda b, salt: made.append(salt) or real(b, salt))
+    first = plugin._draw(batch, "c" * 32)
+    as_made = _car(first).copy()
+    first.prepared["multiview"].video[...] = -1.0  # a check that changed what it read
+    again = plugin._draw(batch, "c" * 32)
+    assert made == ["c" * 32] and again.draw == first.draw == batch.config.draw_digest("c" * 32)
+    assert np.array_equal(_car(again), as_made)  # the draw as made, not as changed
+    other = plugin._draw(batch, "d" * 32)
+    assert made == ["c" * 32, "d" * 32] and other.draw != again.draw and not np.allclose(_car(other), _car(again))
+    plugin._draw(batch, "e" * 32)  # only the last few are kept
+    plugin._draw(batch, "c" * 32)
+    assert made == ["c" * 32, "d" * 32, "e" * 32, "c" * 32] and len(plugin._drawn) == 2
+
+
 def test_a_draw_keeps_the_batch_parts_and_the_shapes(batch, drawn):
     a = drawn["a"]
     for name in ("fundamental", "pose", "correspondence"):
