@@ -17,6 +17,7 @@ import re
 import zipfile
 
 import corpus
+from hidden_files import files_grading
 import nbformat
 import numpy as np
 import pytest
@@ -230,9 +231,10 @@ def test_resumed_batch_skips_graded_work_and_regrades_changed_files(batch, confi
 # the checks, without a sandbox: chosen functions called in this process
 
 
-def judge_all(hidden, student) -> list:
-    """Every question's result of the hidden tests run here on ``student`` (a grader error fails the test)."""
-    result = run_here(student, hidden)
+def judge_all(hidden, student, files=None) -> list:
+    """Every question's result of the hidden tests (or of the hidden test ``files``) run here on
+    ``student`` (a grader error fails the test)."""
+    result = run_here(student, hidden) if files is None else run_here(student, hidden, tests=files)
     internal = [t.name for q in result.questions for t in q.tests if "internal error" in t.feedback]
     assert not internal, f"the grader broke on {internal}"
     return list(result.questions)
@@ -249,7 +251,8 @@ def _scores(hidden, functions) -> dict:
 
 
 def _question(hidden, functions, qid):
-    return next(q for q in judge_all(hidden, LocalStudent(functions)) if q.id == qid)
+    """Question ``qid`` graded by its hidden test file alone (the others would cost their time for nothing)."""
+    return next(q for q in judge_all(hidden, LocalStudent(functions), files_grading(qid)) if q.id == qid)
 
 
 class _Always(LocalStudent):
@@ -308,7 +311,7 @@ def test_valid_variants_of_eightpoint_pass_and_transposed_is_named(hidden):
 
     functions = _reference_functions()
     no_refine = dict(functions, eightpoint=lambda p1, p2, M: solutions.eightpoint(p1, p2, M, refine=False))
-    assert _scores(hidden, no_refine)["Q2"] == 10
+    assert _question(hidden, no_refine, "Q2").score == 10
     transposed = dict(functions, eightpoint=lambda p1, p2, M: solutions.eightpoint(p1, p2, M, refine=False).T)
     q2 = _question(hidden, transposed, "Q2")
     assert q2.score < 10 and "F transposed" in q2.tests[0].feedback
@@ -333,7 +336,7 @@ def test_triangulation_with_optimal_refinement_is_not_penalised(hidden):
         err = np.sum((pts1 - h1[:, :2] / h1[:, 2:]) ** 2) + np.sum((pts2 - h2[:, :2] / h2[:, 2:]) ** 2)
         return w, float(err)
 
-    assert _scores(hidden, dict(_reference_functions(), triangulate=refined))["Q3.2"] == 10
+    assert _question(hidden, dict(_reference_functions(), triangulate=refined), "Q3.2").score == 10
 
 
 def test_bundle_adjustment_that_collapses_the_scale_scores_nothing(hidden):

@@ -521,7 +521,10 @@ def test_ctrl_c_during_set_up_stops_at_once_recording_nothing(tmp_path, config_f
     # its folders (hidden inputs, sandbox, the canary's key) were removed.
     wait_for(lambda: not any(_alive(p) for p in seen), 5, "the set-up's processes to end")
     assert not mine("*")
-    # The same command again grades normally.
+    # The same command again grades normally (once: what is left behind is the same whichever
+    # way the signal came, and a whole batch is this check's cost).
+    if (phase, sigint) != ("canary", "default"):
+        return
     again = cli(args, config_file)
     _, err = again.communicate(timeout=300)
     assert again.returncode == 0, err[-2000:]

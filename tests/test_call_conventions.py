@@ -23,6 +23,7 @@ import corpus
 import numpy as np
 import pytest
 from corpus import variants
+from hidden_files import files_grading
 
 from autograder.batch import grade_batch
 from autograder.config import quick_config
@@ -58,9 +59,10 @@ def _defined(source: str, name: str):
     return namespace[name]
 
 
-def _questions(hidden, **replaced) -> dict:
-    result = run_here(LocalStudent(dict(_reference(), **replaced)), hidden)
-    return {q.id: q for q in result.questions}
+def _question(hidden, qid: str, **replaced):
+    """Question ``qid`` graded here by its hidden test file alone, with ``replaced`` functions and the key's others."""
+    result = run_here(LocalStudent(dict(_reference(), **replaced)), hidden, tests=files_grading(qid))
+    return next(q for q in result.questions if q.id == qid)
 
 
 def _test(q, words):
@@ -71,7 +73,7 @@ def _test(q, words):
 
 
 def test_polished_transposed_F_loses_the_exact_F_check(hidden):
-    q2 = _questions(hidden, eightpoint=_defined(variants.EIGHTPOINT_TRANSPOSED_REFINED, "eightpoint"))["Q2"]
+    q2 = _question(hidden, "Q2", eightpoint=_defined(variants.EIGHTPOINT_TRANSPOSED_REFINED, "eightpoint"))
     exact = _test(q2, "exact F")
     assert exact.score == 0, exact.feedback
     assert "refineF switched off" in exact.feedback
@@ -81,7 +83,7 @@ def test_polished_transposed_F_loses_the_exact_F_check(hidden):
 @pytest.mark.parametrize("cell", ["EIGHTPOINT_REFINED_AFTER_UNSCALING", "EIGHTPOINT_EIGH_REFINED",
                                   "EIGHTPOINT_HARTLEY_REFINED"])
 def test_valid_refined_eightpoints_keep_full_Q2(hidden, cell):
-    q2 = _questions(hidden, eightpoint=_defined(getattr(variants, cell), "eightpoint"))["Q2"]
+    q2 = _question(hidden, "Q2", eightpoint=_defined(getattr(variants, cell), "eightpoint"))
     assert q2.score == q2.max_score, [t.feedback for t in q2.tests]
 
 
@@ -89,7 +91,7 @@ def test_the_refineF_swap_is_undone_after_the_call(hidden):
     from starter.epipolar import refineF
 
     fn = _defined(variants.EIGHTPOINT_TRANSPOSED_REFINED, "eightpoint")
-    _questions(hidden, eightpoint=fn)
+    _question(hidden, "Q2", eightpoint=fn)
     assert fn.__globals__["refineF"] is refineF
 
 
@@ -107,7 +109,7 @@ def test_refineF_called_through_a_module_is_switched_off_too(hidden):
     assert "helper.refineF(" in source
     namespace = {"helper": helper, "triangulate": solutions.triangulate}
     exec(compile(source, "<helper.refineF>", "exec"), namespace)  # noqa: S102 - the corpus's own cell
-    q2 = _questions(hidden, eightpoint=namespace["eightpoint"])["Q2"]
+    q2 = _question(hidden, "Q2", eightpoint=namespace["eightpoint"])
     exact = _test(q2, "exact F")
     assert exact.score == 0, exact.feedback
     assert "refineF switched off" in exact.feedback
@@ -116,26 +118,26 @@ def test_refineF_called_through_a_module_is_switched_off_too(hidden):
 
 @pytest.mark.parametrize("cell", ["EPIPOLAR_SLICES_WITH_COORDINATES", "EPIPOLAR_UINT8_DIFFERENCES"])
 def test_matchers_correct_on_the_course_inputs_get_full_Q41(hidden, cell):
-    q41 = _questions(hidden, epipolarCorrespondence=_defined(getattr(variants, cell), "epipolarCorrespondence"))["Q4.1"]
+    q41 = _question(hidden, "Q4.1", epipolarCorrespondence=_defined(getattr(variants, cell), "epipolarCorrespondence"))
     assert q41.score == q41.max_score, [t.feedback for t in q41.tests]
 
 
 def test_the_course_call_is_tried_first_and_named(hidden):
-    q41 = _questions(hidden)["Q4.1"]
+    q41 = _question(hidden, "Q4.1")
     assert all("integer pixel coordinates" in t.feedback for t in q41.tests), [t.feedback for t in q41.tests]
-    sliced = _questions(hidden, epipolarCorrespondence=_defined(variants.EPIPOLAR_UINT8_DIFFERENCES,
-                                                               "epipolarCorrespondence"))["Q4.1"]
+    sliced = _question(hidden, "Q4.1", epipolarCorrespondence=_defined(variants.EPIPOLAR_UINT8_DIFFERENCES,
+                                                               "epipolarCorrespondence"))
     assert all("integer pixel coordinates" in t.feedback for t in sliced.tests)
 
 
 def test_another_years_findM2_signature_gets_full_Q33(hidden):
-    q33 = _questions(hidden, findM2=_defined(variants.FINDM2_INTRINSICS, "findM2"))["Q3.3"]
+    q33 = _question(hidden, "Q3.3", findM2=_defined(variants.FINDM2_INTRINSICS, "findM2"))
     assert q33.score == q33.max_score, [t.feedback for t in q33.tests]
     assert "intrinsics" in q33.tests[0].feedback
 
 
 def test_a_failing_call_says_how_it_was_called(hidden):
-    q33 = _questions(hidden, findM2=_defined(variants.FINDM2_INTRINSICS_BROKEN, "findM2"))["Q3.3"]
+    q33 = _question(hidden, "Q3.3", findM2=_defined(variants.FINDM2_INTRINSICS_BROKEN, "findM2"))
     assert q33.score == 0
     text = "\n".join(t.feedback for t in q33.tests)
     assert "called as findM2(F: a 3x3 float64 array" in text and "intrinsics: a dict with K1, K2" in text, text
@@ -154,8 +156,8 @@ def _wrapped(source: str, name: str):
 
 
 def test_an_err_inconsistent_with_P_loses_exactly_the_err_check(hidden):
-    q6 = _questions(hidden, MultiviewReconstruction=_wrapped(variants.WRAP_MULTIVIEW_MEAN_ERR,
-                                                             "MultiviewReconstruction"))["Q6"]
+    q6 = _question(hidden, "Q6", MultiviewReconstruction=_wrapped(variants.WRAP_MULTIVIEW_MEAN_ERR,
+                                                             "MultiviewReconstruction"))
     lost = [t for t in q6.tests if t.score < t.max_score]
     assert [t.name for t in lost] == ["err is the total squared reprojection error of P over the detections used"], \
         [(t.name, t.feedback) for t in q6.tests]
@@ -164,7 +166,7 @@ def test_an_err_inconsistent_with_P_loses_exactly_the_err_check(hidden):
 
 
 def test_pts2_inconsistent_with_w_loses_exactly_the_pts2_check(hidden):
-    q42 = _questions(hidden, compute3D_pts=_wrapped(variants.WRAP_COMPUTE3D_RETURNS_PTS1, "compute3D_pts"))["Q4.2"]
+    q42 = _question(hidden, "Q4.2", compute3D_pts=_wrapped(variants.WRAP_COMPUTE3D_RETURNS_PTS1, "compute3D_pts"))
     lost = [t for t in q42.tests if t.score < t.max_score]
     assert [t.name for t in lost] == ["pts2 are the matches w was triangulated from"], \
         [(t.name, t.feedback) for t in q42.tests]
@@ -203,7 +205,7 @@ INCONSISTENT = {
 @pytest.mark.parametrize("function", list(INCONSISTENT))
 def test_a_companion_value_is_judged_against_the_returned_points(hidden, function):
     fn, qid, check = INCONSISTENT[function]
-    q = _questions(hidden, **{function: fn})[qid]
+    q = _question(hidden, qid, **{function: fn})
     assert [t.name for t in q.tests if t.score < t.max_score] == [check], [(t.name, t.feedback) for t in q.tests]
 
 
@@ -319,7 +321,7 @@ def test_another_years_compute3D_pts_gets_full_Q42(hidden):
 
     fn = _defined(variants.COMPUTE3D_FIVE_ARGUMENTS, "compute3D_pts")
     fn.__globals__.update(epipolarCorrespondence=solutions.epipolarCorrespondence, findM2=solutions.findM2)
-    q42 = _questions(hidden, compute3D_pts=fn, triangulate=lambda *a: None)["Q4.2"]
+    q42 = _question(hidden, "Q4.2", compute3D_pts=fn, triangulate=lambda *a: None)
     assert q42.score == q42.max_score, [t.feedback for t in q42.tests]
     assert "as the course calls it" in q42.tests[0].feedback
 
@@ -371,7 +373,7 @@ def test_five_returned_values_are_read_by_what_each_is():
 
 
 def test_points_first_findM2_gets_full_Q33(hidden):
-    q33 = _questions(hidden, findM2=_points_first_findM2())["Q3.3"]
+    q33 = _question(hidden, "Q3.3", findM2=_points_first_findM2())
     assert q33.score == q33.max_score, [t.feedback for t in q33.tests]
     assert "findM2(pts1, pts2, F, K1, K2)" in q33.tests[0].feedback
 

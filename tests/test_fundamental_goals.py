@@ -1,6 +1,6 @@
 """Q2's goals hold under every secret (issue 9): valid methods keep full Q2, mistakes lose it.
 
-For each secret (CI's 8, the release sweep's 20: tests/breadth.py) the hidden Q2 inputs are prepared as the grader prepares them
+For each secret (CI's 4, the release sweep's 20: tests/breadth.py) the hidden Q2 inputs are prepared as the grader prepares them
 (``autograder.hidden.cases.fundamental.prepare_fundamental`` on the hidden scenes of
 ``quick_config(secret=...)``; the default data, the same under every secret, under the first),
 every eightpoint below is called through a ``LocalStudent`` as the hidden tests call it

@@ -3,7 +3,7 @@
 For each secret, the hidden inputs of ``quick_config(secret=...)`` are built once
 (``autograder.hidden.inputs.build_hidden_inputs``: the batch's inputs, which every program of
 the secret shares; the grader draws each submission's own from the secret and its code, which the
-secrets stand in for: CI's first 8, all 20 with ``HW4_SWEEP_ALL=1``, see tests/breadth.py) and the kit's valid alternatives and mistakes are graded by the real
+secrets stand in for: CI's first 4, all 20 with ``HW4_SWEEP_ALL=1``, see tests/breadth.py) and the kit's valid alternatives and mistakes are graded by the real
 hidden tests, in this process (``autograder.hidden.plugin.run_here`` on a ``LocalStudent`` of the
 program's functions), for every autograded question:
 
