@@ -177,7 +177,7 @@ def test_fd_leaking_matcher_costs_no_other_question_at_the_namespaces_level(tmp_
     sub = corpus.build(LEAKER, tmp_path / "subs")
     out = tmp_path / "out"
     proc = run([sys.executable, "-m", "autograder", "grade", str(sub), "--out", str(out), "--quiet",
-                "--isolation", "namespaces"])
+                "--isolation", "namespaces", "--no-pictures"])
     assert proc.returncode == 0, proc.stderr[-3000:]
     state = json.loads((out / LEAKER / "grading.json").read_text())
     assert state["isolation"]["level"] == "namespaces"
