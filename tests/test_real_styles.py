@@ -15,15 +15,16 @@ reported too, so that the list shrinks.  Cost (two cores, about a minute and a h
 in-process grading reuses the sweep's machinery (``grade``: ``run_here`` on a ``LocalStudent``,
 only the hidden files asked for; ``_same``; ``parallel.fork_map``): a hidden file is run once per
 group of programs whose differences from each other do not reach its judged functions, and
-shared by the group (see "sharing work"); each program run under one of six secrets in turn
+shared by the group (see "sharing work"); each program run under one of the sweep's secrets in turn
 (every secret with ``HW4_SWEEP_ALL=1``); the self-checks are shared the same way; the CLI
 grades three programs (util, a helper.refineF switched off through the module, a per-part zip
-writing result/) under one secret.
+writing result/) under one secret, with the sweep's settings.
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -36,6 +37,8 @@ import pytest
 import breadth
 import realstyles
 from realstyles import PROGRAMS, QUESTION_FUNCTIONS
+
+from autograder.config import quick_config
 
 pytestmark = pytest.mark.slow
 
@@ -387,12 +390,15 @@ def test_cli_grades_as_in_process(tmp_path):
     for name in CLI_PROGRAMS:  # the gradebook names a hand-in by its file or folder: the program's name
         path = realstyles.build(name, tmp_path / "built")
         built.append(path.rename(tmp_path / f"{name}.zip") if path.suffix == ".zip" else path)
-    env = dict(os.environ, HW4_GRADER_SECRET=CLI_SECRET)
-    env.pop("HW4_GRADER_CONFIG", None)
+    # The sweep's settings under its first secret (full time limits: the grader's own, not the
+    # tightened ones of the kit's quick tests).
+    config = tmp_path / "grader.json"
+    config.write_text(json.dumps(quick_config(secret=CLI_SECRET, time_scale=1.0).to_dict()))
+    env = {k: v for k, v in os.environ.items() if k not in ("HW4_GRADER_SECRET", "HW4_GRADER_CONFIG")}
     started = time.perf_counter()
     run = subprocess.run([sys.executable, "-m", "autograder", "grade", *map(str, built), "--out", str(tmp_path / "out"),
-                          "--jobs", str(parallel.workers()), "--quiet", "--no-pictures"], cwd=KIT_ROOT, env=env, capture_output=True,
-                         text=True, timeout=1500)
+                          "--config", str(config), "--jobs", str(parallel.workers()), "--quiet", "--no-pictures"],
+                         cwd=KIT_ROOT, env=env, capture_output=True, text=True, timeout=1500)
     print(f"\nCLI: {len(built)} programs in {time.perf_counter() - started:.0f} s")
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     rows = list(csv.DictReader(open(tmp_path / "out" / "grades.csv")))
