@@ -2,8 +2,8 @@
 
 Scenes: the default data's (scenes.defaults.default_temple), the public self-checks' (the generated
 temple and its K1 != K2 pair of starter/checks/_scenes.py), and the hidden draws of
-``make_scenes`` under ``quick_config`` and the default ``GradingConfig`` for the secret sweep's 20
-secrets (their temples and the K1 != K2 pair the hidden Q3.1 and Q3.2 use).  Only what the checks
+``make_scenes`` under ``quick_config`` and the default ``GradingConfig`` for the secret sweep's
+secrets (CI's 4, the release sweep's 20: tests/breadth.py; their temples and the K1 != K2 pair the hidden Q3.1 and Q3.2 use).  Only what the checks
 need is made: the hidden draws without the default data (``fixed=False``), in two forked processes.
 
 Then the two hand-in habits that scenes outside the envelope failed: E / E[2, 2] (a public and a
@@ -13,6 +13,7 @@ padding (templeCoords came within 10 px of the border).
 
 from __future__ import annotations
 
+import breadth
 import numpy as np
 import parallel
 import pytest
@@ -20,7 +21,7 @@ import pytest
 from autograder.config import GradingConfig, quick_config
 from scenes import envelope
 
-SECRETS = [f"sweep-secret-{k:02d}" for k in range(20)]   # the names tests/test_secret_sweep.py uses
+SECRETS = breadth.secrets("sweep-secret")   # tests/test_secret_sweep.py's
 CONFIGS = {"quick_config": quick_config, "GradingConfig": GradingConfig}
 
 
