@@ -11,13 +11,17 @@ from pathlib import Path
 
 from autograder.hidden.plugin import HIDDEN_DIR
 
-__all__ = ["files_grading"]
+__all__ = ["files_grading", "questions_graded"]
+
+
+def questions_graded(text: str) -> frozenset[str]:
+    """The questions the checks of a hidden test file's ``text`` count for."""
+    return frozenset(re.findall(r'question="(Q[\d.]+)"', text))
 
 
 def files_grading(*qids: str) -> list[Path]:
     """The hidden test files (autograder/hidden/test_*.py) with a check counting for one of ``qids``."""
-    found = [p for p in sorted(HIDDEN_DIR.glob("test_*.py"))
-             if set(re.findall(r'question="(Q[\d.]+)"', p.read_text())) & set(qids)]
+    found = [p for p in sorted(HIDDEN_DIR.glob("test_*.py")) if questions_graded(p.read_text()) & set(qids)]
     if not found:
         raise ValueError(f"qids: expected questions a hidden test file grades, got {qids}")
     return found

@@ -17,10 +17,10 @@ import re
 import zipfile
 
 import corpus
-from hidden_files import files_grading
 import nbformat
 import numpy as np
 import pytest
+from hidden_files import files_grading
 
 from autograder.config import (
     DEV_SECRET,
@@ -31,7 +31,7 @@ from autograder.config import (
 )
 from autograder.batch import grade_batch, submission_digest
 from autograder.hidden.inputs import build_hidden_inputs
-from autograder.hidden.plugin import LocalStudent, run_here
+from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from autograder.key import write_key_submission
 from autograder.results import autograded_question_ids
 from autograder.sandbox import CallOutcome, ResourceLimits, Sandbox, live_pids_of_uid
@@ -231,10 +231,10 @@ def test_resumed_batch_skips_graded_work_and_regrades_changed_files(batch, confi
 # the checks, without a sandbox: chosen functions called in this process
 
 
-def judge_all(hidden, student, files=None) -> list:
-    """Every question's result of the hidden tests (or of the hidden test ``files``) run here on
+def judge_all(hidden, student, files=(HIDDEN_DIR,)) -> list:
+    """Every question's result of the hidden tests (``files``: all of them by default) run here on
     ``student`` (a grader error fails the test)."""
-    result = run_here(student, hidden) if files is None else run_here(student, hidden, tests=files)
+    result = run_here(student, hidden, tests=files)
     internal = [t.name for q in result.questions for t in q.tests if "internal error" in t.feedback]
     assert not internal, f"the grader broke on {internal}"
     return list(result.questions)

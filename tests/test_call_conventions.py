@@ -126,7 +126,7 @@ def test_the_course_call_is_tried_first_and_named(hidden):
     q41 = _question(hidden, "Q4.1")
     assert all("integer pixel coordinates" in t.feedback for t in q41.tests), [t.feedback for t in q41.tests]
     sliced = _question(hidden, "Q4.1", epipolarCorrespondence=_defined(variants.EPIPOLAR_UINT8_DIFFERENCES,
-                                                               "epipolarCorrespondence"))
+                                                                      "epipolarCorrespondence"))
     assert all("integer pixel coordinates" in t.feedback for t in sliced.tests)
 
 
@@ -157,7 +157,7 @@ def _wrapped(source: str, name: str):
 
 def test_an_err_inconsistent_with_P_loses_exactly_the_err_check(hidden):
     q6 = _question(hidden, "Q6", MultiviewReconstruction=_wrapped(variants.WRAP_MULTIVIEW_MEAN_ERR,
-                                                             "MultiviewReconstruction"))
+                                                                  "MultiviewReconstruction"))
     lost = [t for t in q6.tests if t.score < t.max_score]
     assert [t.name for t in lost] == ["err is the total squared reprojection error of P over the detections used"], \
         [(t.name, t.feedback) for t in q6.tests]

@@ -200,7 +200,6 @@ _WORK: dict = {}  # secret -> [(program run, [(concept, program names sharing it
 
 
 def _grade_secret(secret: str):
-    from autograder.config import quick_config
     from autograder.hidden.inputs import build_hidden_inputs
     from test_secret_sweep import grade
 

@@ -40,6 +40,7 @@ import numpy as np
 import parallel
 import pytest
 from corpus import variants
+from hidden_files import questions_graded
 
 pytestmark = pytest.mark.slow
 
@@ -127,7 +128,7 @@ def _hidden_files() -> dict[str, tuple[frozenset, frozenset]]:
     for path in sorted(HIDDEN_DIR.glob("test_*.py")):
         text = path.read_text()
         judged = frozenset(n for n in GRADED if f'"{n}"' in text)
-        questions = frozenset(re.findall(r'question="(Q[\d.]+)"', text))
+        questions = questions_graded(text)
         if questions:  # a file that grades no question (the unscored picture step) has no verdict to sweep
             out[path.stem.removeprefix("test_")] = (judged, questions)
     return out

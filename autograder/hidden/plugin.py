@@ -30,6 +30,7 @@ as ``pictures``, for ``autograder.pictures.decode``).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import math
@@ -312,8 +313,6 @@ def _draw(batch, salt: str):
     hands the next submission of the same code (the canary's key and a key handed in, students
     handing in the untouched notebooks) a copy instead of making it again (about 3 s).  A
     submission of other code never sees them: its salt is another."""
-    import copy
-
     from autograder.hidden import inputs
 
     key = (id(batch), salt)
