@@ -247,21 +247,16 @@ def key_file(scratch: Path) -> list[tuple[str, Path]]:
     return [(KEY_NAME, write_key_submission(scratch / "key", zip_it=True))]
 
 
-def hidden_inputs_file(scratch: Path, key: Path | None = None) -> list[tuple[str, Path]]:
+def hidden_inputs_file(scratch: Path) -> list[tuple[str, Path]]:
     """The hidden inputs of ``scratch/grader_config.json`` (written by ``config_file``), made now and
-    saved by ``autograder.hidden.inputs.save`` under ``scratch/hidden_inputs``: the bundle's members.
-
-    ``key``: the answer-key submission the canary grades; its draw is made now too
-    (``inputs.with_draws``), so that a container makes only the submission's own draw."""
+    saved by ``autograder.hidden.inputs.save`` under ``scratch/hidden_inputs``: the bundle's members
+    (the canary grades the key on them; each submission's draw is made in its container)."""
     from .config import load_config
     from .hidden import inputs
-    from .submission import load_submission
 
     config = load_config(scratch / CONFIG_NAME, environ={})
     folder = scratch / HIDDEN_INPUTS_DIR
     hidden = inputs.build_hidden_inputs(config)
-    if key is not None:
-        hidden = inputs.with_draws(hidden, [inputs.code_salt(load_submission(key))])
     inputs.save(hidden, folder)
     return [(f"{HIDDEN_INPUTS_DIR}/{p.name}", p) for p in sorted(folder.iterdir()) if p.is_file()]
 
@@ -312,8 +307,7 @@ def build_bundle(out: str | Path, *, kit_root: str | Path = KIT_ROOT, time_limit
     with tempfile.TemporaryDirectory(prefix="hw4-gradescope-") as tmp:
         scratch = Path(tmp)
         members = grader_files(root) + data_files(root, scratch) + config_file(scratch, allow_dev_secret=allow_dev_secret)
-        key = key_file(scratch)
-        members += hidden_inputs_file(scratch, key[0][1]) + key
+        members += hidden_inputs_file(scratch) + key_file(scratch)
         names = [n for n, _ in members]
         if len(set(names)) != len(names) or set(names) & set(_SCRIPTS):
             raise ValueError(f"kit_root: two bundle files would share a path: {sorted(names)}")

@@ -249,7 +249,6 @@ def _grade(path: Path, root: Path, time_factor: float = DEFAULT_TIME_FACTOR,
                   slowness=round(slowness, 3), cpu_share=round(share, 3), wall_factor=round(wall_factor, 2),
                   time_scale=round(config.time_scale * scale, 4))
     # The same inputs with this container's limits (the checks read them from config.time_scale).
-    # (The draws made in advance, the key's, stay: the scenes do not depend on time_scale.)
     hidden = dataclasses.replace(hidden, config=dataclasses.replace(config, time_scale=config.time_scale * scale),
                                  scenes=None)
     limits = ResourceLimits(clock="cpu", wall_factor=wall_factor, cpu_share=share)

@@ -18,7 +18,8 @@ A run owns, for its whole life:
 - the sandboxes (one per concurrent grading, opened when first needed, each hiding the same one
   list: ``hidden_paths``), and the grading workers (``autograder.workers.WorkerPool``);
 - the session budget (``autograder.budget``), handed to the plugin as ``--budget``;
-- the canary: the answer key graded once, in a sandbox of the run, before anything else;
+- the canary: the answer key graded once, in a sandbox of the run, before anything else, on the
+  secret's own scenes (the run's hidden inputs) rather than a draw of its own;
 - whether the unscored picture step runs after a submission's checks (``pictures``): its record
   comes back on the result (``SubmissionResult.pictures``) for feedback.html or Gradescope's
   picture tests.  The canary never runs it.
@@ -201,9 +202,11 @@ class GradingRun:
                 # The key gets the full budget: the deadline is the submission's (on Gradescope a
                 # short time limit must end the student's session, not fail the canary).  Nor does
                 # it draw pictures: the canary checks the grading, not the feedback.
+                # It grades on the secret's own scenes, which the run has made already: the key
+                # proves the environment, and a draw of its own would cost every run about 2 s.
                 self.canary_report = canary.check(
-                    lambda path, **kw: self._grade_in(box, Path(path), deadline=None, pictures=False, **kw), box,
-                    key=self.key)
+                    lambda path, **kw: self._grade_in(box, Path(path), deadline=None, pictures=False,
+                                                      secret_scenes=True, **kw), box, key=self.key)
             finally:
                 self._give_back(box)
         except BaseException:
@@ -265,7 +268,8 @@ class GradingRun:
                                        configuration={**self.record, "isolation": self.level, "draw": None})
 
     def _grade_in(self, box: Sandbox, path: Path, *, deadline: float | None, pictures: bool,
-                  student_id: str | None = None, staff: dict | None = None) -> SubmissionResult:
+                  student_id: str | None = None, staff: dict | None = None,
+                  secret_scenes: bool = False) -> SubmissionResult:
         staff = staff if staff is not None else {}
         staff.setdefault("log", [])
         path = path.resolve()
@@ -273,7 +277,8 @@ class GradingRun:
         budget = budget_of(self.hidden, limits, deadline)
         options = ["--grading-config", str(self._cache / "config.json"), "--hidden-cache", str(self._cache),
                    "--sandbox-spec", str(self._spec(box)), "--stamp", str(self._cache / "stamp.json"),
-                   f"--student-id={student_id or path.name}", "--budget", repr(budget)]
+                   f"--student-id={student_id or path.name}", "--budget", repr(budget),
+                   *(["--secret-scenes"] if secret_scenes else [])]
         result, got = run_session(self.pool, path, folder=self._cache, options=options,
                                   timeout=backstop_of(self.hidden, limits, deadline),
                                   extra_tests=self.extra_tests, pictures=pictures)

@@ -339,19 +339,17 @@ def test_bundle_carries_the_hidden_inputs_and_its_display_settings(bundle, names
     assert info["time_factor"] == gradescope.DEFAULT_TIME_FACTOR
 
 
-def test_bundle_carries_the_answer_keys_draw_so_a_container_draws_only_the_submissions(bundle, tmp_path):
+def test_bundle_carries_the_secrets_own_inputs_which_the_canary_grades_on(bundle, tmp_path):
     from autograder.hidden import inputs
-    from autograder.submission import load_submission
+    from autograder.hidden.cases import CONCEPTS
 
     source = unpack(bundle, tmp_path) / "source"
     config = load_config(source / gradescope.CONFIG_NAME, environ={})
     os.chmod(source / gradescope.HIDDEN_INPUTS_DIR, 0o700)
     hidden = inputs.load(source / gradescope.HIDDEN_INPUTS_DIR, config)
-    salt = inputs.code_salt(load_submission(source / gradescope.KEY_NAME))
-    assert hidden.draw is None and list(hidden.drawn) == [salt]
-    key_draw = inputs.draw(hidden, salt)
-    assert key_draw.scenes is None and key_draw.prepared is hidden.drawn[salt]  # bundled, not made again
-    assert key_draw.draw == config.draw_digest(salt)
+    # The batch's inputs (no submission's draw), every concept's, without the scenes themselves.
+    assert hidden.draw is None and hidden.scenes is None and set(hidden.prepared) == set(CONCEPTS)
+    assert (source / gradescope.KEY_NAME).is_file()
 
 
 def test_visibility_and_time_factor_are_checked_at_build(tmp_path):

@@ -104,13 +104,6 @@ def test_a_draw_keeps_the_batch_parts_and_the_shapes(batch, drawn):
     assert a.call_seconds() == batch.call_seconds()
 
 
-def test_a_draw_made_in_advance_is_the_one_made_later(batch, drawn):
-    early = inputs.with_draws(batch, ["a" * 32])
-    assert early.prepared is batch.prepared and set(early.drawn) == {"a" * 32}
-    used = inputs.draw(early, "a" * 32)
-    assert used.draw == drawn["a"].draw and np.array_equal(_temple_points(used), _temple_points(drawn["a"]))
-
-
 def test_q33s_right_camera_is_the_one_the_reference_chooses_even_from_a_poor_F(monkeypatch):
     # Q3.3 gives findM2 the reference's F of a hidden scene and expects the candidate nearest the
     # true pose. From a poor F, the points in front of both cameras can pick another candidate:
@@ -268,6 +261,13 @@ def test_results_name_the_draw_by_a_short_digest_only(graded, batch):
         assert re.fullmatch(r"[0-9a-f]{12}", result.configuration["draw"])
         assert salt not in text and salt[:16] not in text
         drawn = inputs.draw(batch, salt)
-        points = _temple_points(drawn)[:20]
-        shown = [f"{v:.3f}" for v in points] + [f"{v:.3f}" for v in _car(drawn).ravel()[:20]]
-        assert not [s for s in shown if s in text], "a coordinate of the drawn scenes reached the results"
+        coordinates = [*_temple_points(drawn)[:20], *_car(drawn).ravel()[:20]]
+        assert not _printed(coordinates, text), "a coordinate of the drawn scenes reached the results"
+
+
+def _printed(values, text: str) -> list[float]:
+    """The values that ``text`` prints as a number of 3 decimals or more (rounded as printed).
+    Whole numbers only, never a piece of one: "1.235" inside a timing of 21.2351 s is no leak.
+    Small values need 4 decimals: at 3, a feedback figure matches one of them by chance."""
+    numbers = [(float(t), len(t.split(".")[1])) for t in re.findall(r"(?<![\d.])-?\d+\.\d+", text)]
+    return [v for v in values for x, d in numbers if d >= 3 and round(float(v), d) == x and (d >= 4 or abs(v) >= 10)]

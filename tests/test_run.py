@@ -1,5 +1,6 @@
 """One grading run, set up once, grades several submissions: each result finished and stamped by
-the run (configuration, sandbox level, the submission's own draw), the canary graded once.  The
+the run (configuration, sandbox level, the submission's own draw), the canary graded once, on the
+secret's own scenes.  The
 run's picture step: its record comes back on the result when asked for, never for the canary."""
 
 from __future__ import annotations
@@ -29,7 +30,8 @@ def test_one_run_grades_two_submissions_with_one_set_up(tmp_path, monkeypatch):
     real_session = run_module.run_session
 
     def session(pool, submission, **kw):
-        sessions.append((next(o for o in kw["options"] if o.startswith("--student-id=")), kw.get("pictures")))
+        sessions.append((next(o for o in kw["options"] if o.startswith("--student-id=")), kw.get("pictures"),
+                         "--secret-scenes" in kw["options"]))
         return real_session(pool, submission, **kw)
 
     monkeypatch.setattr(run_module, "run_session", session)
@@ -55,8 +57,10 @@ def test_one_run_grades_two_submissions_with_one_set_up(tmp_path, monkeypatch):
         assert stamp["draw"] and result.execution_time > 0
     assert first.configuration["draw"] != second.configuration["draw"]  # each its own hidden draw
     # The picture step: the canary's session never ran it, the run's default did, the call's False did not.
-    assert [asked for _, asked in sessions] == [False, True, False]
+    assert [asked for _, asked, _ in sessions] == [False, True, False]
     assert sessions[1][0] == "--student-id=alice"
+    # The canary grades on the secret's own scenes (the run made them), each submission on its draw.
+    assert [secret for _, _, secret in sessions] == [True, False, False]
     assert second.pictures is None and isinstance(first.pictures, dict)
     assert "pictures" not in first.to_dict() and first == SubmissionResult.from_dict(first.to_dict())
     figures = figures_of(first.pictures)

@@ -11,9 +11,9 @@ the checks' random choices seeded from the secret and ``code_salt(submission)``,
 code the grader runs, so that a regrade gets the same scenes and another submission other ones
 (scenes collected by one submission are worth nothing to the next).  What does not depend on the
 submission (the default data, the official data and the reference's results on them) is taken
-from the batch's inputs, so a draw costs about a second (two temple renders, the reference on
-them).  ``HiddenInputs.drawn`` may hold draws made in advance (the answer key's, in the
-Gradescope bundle).  ``build_hidden_inputs(config, salt=...)`` is the draw of a salt in one call.
+from the batch's inputs, so a draw costs only what depends on the submission (two temple
+renders, the reference on them, about 2 s).  The canary grades the answer key on the batch's
+inputs themselves.  ``build_hidden_inputs(config, salt=...)`` is the draw of a salt in one call.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from autograder.config import GradingConfig
 from .cases import call_seconds, draw_all, prepare_all
 from .scenes import Scenes, make_scenes
 
-__all__ = ["HiddenInputs", "build_hidden_inputs", "code_salt", "draw", "load", "save", "with_draws"]
+__all__ = ["HiddenInputs", "build_hidden_inputs", "code_salt", "draw", "load", "save"]
 
 _FILE = "hidden-inputs.pickle"
 
@@ -45,14 +45,12 @@ class HiddenInputs:
 
     draw : None for the batch's inputs (the secret's own scenes), else the short digest
         (``GradingConfig.draw_digest``) of the submission's draw these are.
-    drawn : draws made in advance, ``{salt: prepared}`` (``with_draws``); ``draw`` uses them.
     """
 
     config: GradingConfig
     scenes: Scenes | None
     prepared: dict = field(default_factory=dict)
     draw: str | None = None
-    drawn: dict = field(default_factory=dict)
 
     def call_seconds(self) -> float:
         """The time every check may give student code, added up (for the session's budget)."""
@@ -76,8 +74,8 @@ def draw(batch: HiddenInputs, salt: str) -> HiddenInputs:
     """The hidden inputs of the submission whose ``code_salt`` is ``salt``, under ``batch``'s config.
 
     The hidden temples, the cars and every random choice of the checks are drawn from the secret
-    and ``salt``; the default and official data's parts are ``batch``'s.  A draw made in advance
-    (``batch.drawn``) is used as it is.  The result's ``draw`` names it (a short digest).
+    and ``salt``; the default and official data's parts are ``batch``'s.  The result's ``draw``
+    names it (a short digest).
 
     Raises
     ------
@@ -88,20 +86,8 @@ def draw(batch: HiddenInputs, salt: str) -> HiddenInputs:
         raise ValueError(f"salt: expected a non-empty str (code_salt of a submission), got {salt!r}")
     if batch.draw is not None:
         raise ValueError(f"batch: expected the batch's inputs (draw None), got the draw {batch.draw}")
-    digest = batch.config.draw_digest(salt)
-    if salt in batch.drawn:
-        return HiddenInputs(batch.config, None, batch.drawn[salt], digest)
     scenes = make_scenes(batch.config, salt=salt, fixed=False)
-    return HiddenInputs(batch.config, scenes, draw_all(scenes, batch.prepared), digest)
-
-
-def with_draws(batch: HiddenInputs, salts) -> HiddenInputs:
-    """``batch`` with the draws of ``salts`` made in advance (in ``drawn``; ``save`` keeps them)."""
-    made = dict(batch.drawn)
-    for salt in salts:
-        if salt not in made:
-            made[salt] = draw(batch, salt).prepared
-    return dataclasses.replace(batch, drawn=made)
+    return HiddenInputs(batch.config, scenes, draw_all(scenes, batch.prepared), batch.config.draw_digest(salt))
 
 
 def code_salt(submission) -> str:

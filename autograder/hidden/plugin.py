@@ -252,6 +252,9 @@ def pytest_addoption(parser):
     g.addoption("--student-id", default=None, help="the gradebook name of the submission")
     g.addoption("--budget", type=float, default=None, help="seconds for the whole submission (default: from the checks)")
     g.addoption("--stamp", default=None, help="JSON of the run's configuration record, stamped on the result")
+    g.addoption("--secret-scenes", action="store_true", default=False,
+                help="grade on the batch's own inputs (the scenes of the secret alone), not on the submission's "
+                     "draw: the canary's session")
     g.addoption("--pictures", action="store_true", default=False,
                 help="after the checks, run the unscored picture step on the public data (autograder.pictures)")
 
@@ -283,7 +286,8 @@ def hidden(request, grading_config):
     """The hidden inputs (``autograder.hidden.inputs.HiddenInputs``) of this submission: its own
     draw (``inputs.draw``, seeded by the secret and the digest of its code) of the batch's inputs,
     which come from the batch's cache or are made here.  A ``Local`` plugin's inputs, or a cache
-    holding a draw already, are used as they are; without ``--submission``, the batch's."""
+    holding a draw already, are used as they are; without ``--submission`` or with
+    ``--secret-scenes`` (the canary), the batch's."""
     from autograder.hidden import inputs
 
     local = _local(request.config)
@@ -298,7 +302,8 @@ def hidden(request, grading_config):
         batch = _loaded[key]
     else:
         batch = inputs.build_hidden_inputs(grading_config)
-    if batch.draw is not None or local is not None or not request.config.getoption("--submission"):
+    if (batch.draw is not None or local is not None or not request.config.getoption("--submission")
+            or request.config.getoption("--secret-scenes")):
         request.config._hw4["draw"] = batch.draw
         return batch
     drawn = _draw(batch, inputs.code_salt(request.getfixturevalue("submission")))
@@ -310,8 +315,8 @@ def _draw(batch, salt: str):
     """The draw of ``salt`` from ``batch``, made here, in the grading process (outside the sandbox).
 
     The same code always gets the same draw, so this process keeps its last few, by salt, and
-    hands the next submission of the same code (the canary's key and a key handed in, students
-    handing in the untouched notebooks) a copy instead of making it again (about 3 s).  A
+    hands the next submission of the same code (copies of the answer key, students handing in the
+    untouched notebooks, a regrade) a copy instead of making it again (about 3 s).  A
     submission of other code never sees them: its salt is another."""
     from autograder.hidden import inputs
 
