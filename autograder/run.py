@@ -203,7 +203,7 @@ class GradingRun:
                 # short time limit must end the student's session, not fail the canary).  Nor does
                 # it draw pictures: the canary checks the grading, not the feedback.
                 # It grades on the secret's own scenes, which the run has made already: the key
-                # proves the environment, and a draw of its own would cost every run about 2 s.
+                # proves the environment, and a draw of its own would cost every run its making.
                 self.canary_report = canary.check(
                     lambda path, **kw: self._grade_in(box, Path(path), deadline=None, pictures=False,
                                                       secret_scenes=True, **kw), box, key=self.key)
