@@ -2,10 +2,10 @@
 
 The sweeps (tests/test_secret_sweep.py, tests/test_fundamental_goals.py) cost about 25 s of both
 cores per secret together on a fresh clone (8 secrets: 143 and 68 s); 20 of them do not fit CI's
-time beside the rest of the suite, nor did 8 within its 15 minutes.
-So CI grades under the first ``CI_SECRETS`` (4: each costly program of the sweep under one), and ``HW4_SWEEP_ALL=1`` (the release sweep, run before
-a term's grades are published or after a change to the hidden tests or scenes) under all
-``RELEASE_SECRETS``, with every costly program under every secret.  ``HW4_SWEEP_SECRETS=n`` picks
+time beside the rest of the suite, nor did 8 within its 15 minutes.  So CI grades under the
+first ``CI_SECRETS`` (4: each costly program of the sweep under one), and ``HW4_SWEEP_ALL=1``
+(the release sweep, run before a term's grades are published or after a change to the hidden
+tests or scenes) under all ``RELEASE_SECRETS``, with every costly program under every secret.  ``HW4_SWEEP_SECRETS=n`` picks
 n (a quick look while editing).
 """
 

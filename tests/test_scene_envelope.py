@@ -3,8 +3,9 @@
 Scenes: the default data's (scenes.defaults.default_temple), the public self-checks' (the generated
 temple and its K1 != K2 pair of starter/checks/_scenes.py), and the hidden draws of
 ``make_scenes`` under ``quick_config`` and the default ``GradingConfig`` for the secret sweep's
-secrets (CI's 4, the release sweep's 20: tests/breadth.py; their temples and the K1 != K2 pair the hidden Q3.1 and Q3.2 use).  Only what the checks
-need is made: the hidden draws without the default data (``fixed=False``), in two forked processes.
+secrets (CI's 4, the release sweep's 20: tests/breadth.py; their temples and the K1 != K2 pair
+the hidden Q3.1 and Q3.2 use).  Only what the checks need is made: the hidden draws without the
+default data (``fixed=False``), in two forked processes.
 
 Then the two hand-in habits that scenes outside the envelope failed: E / E[2, 2] (a public and a
 hidden Q3.1 input had E[2, 2] = 0 up to rounding) and a 101 x 101 matching window cut without

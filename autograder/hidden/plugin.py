@@ -51,7 +51,7 @@ __all__ = ["HIDDEN_DIR", "CheckFailed", "Local", "config_of", "run_here", "Local
 _OUTPUT_KEPT = 8000
 HIDDEN_DIR = Path(__file__).resolve().parent
 _loaded: dict = {}          # hidden inputs loaded by this process, by (folder, config fingerprint)
-_drawn: dict = {}           # this process's last draws: (id of the batch's inputs, salt) -> (batch, prepared)
+_drawn: dict = {}           # this process's last draws: (id of the batch's inputs, salt) -> (batch, draw)
 _DRAWS_KEPT = 4
 
 
@@ -321,14 +321,14 @@ def _draw(batch, salt: str):
     from autograder.hidden import inputs
 
     key = (id(batch), salt)
-    if key in _drawn:
-        prepared = copy.deepcopy(_drawn[key][1])  # a check may not change what the next one reads
-        return inputs.HiddenInputs(batch.config, None, prepared, batch.config.draw_digest(salt))
-    drawn = inputs.draw(batch, salt)
-    while len(_drawn) >= _DRAWS_KEPT:
-        _drawn.pop(next(iter(_drawn)))
-    _drawn[key] = (batch, copy.deepcopy(drawn.prepared))  # the batch kept alive: its id names it
-    return drawn
+    if key not in _drawn:
+        while len(_drawn) >= _DRAWS_KEPT:
+            _drawn.pop(next(iter(_drawn)))
+        # Kept without its scenes (the checks read only the prepared inputs); the batch kept
+        # alive, as its id names it.
+        _drawn[key] = (batch, dataclasses.replace(inputs.draw(batch, salt), scenes=None))
+    kept = _drawn[key][1]
+    return dataclasses.replace(kept, prepared=copy.deepcopy(kept.prepared))  # a check may change its copy only
 
 
 def pytest_collection_modifyitems(session, config, items):
