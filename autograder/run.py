@@ -14,7 +14,8 @@ A run owns, for its whole life:
   which the hidden plugin stamps on every result (``--stamp``) with the sandbox level and the
   submission's draw, so a result is built once, by the plugin, and never amended;
 - the hidden inputs and their cache (a private 0700 folder of the grader's, hidden from
-  student code, with the run's config.json and stamp.json written once);
+  student code, with the run's config.json and stamp.json written once), and the keep that
+  holds them and the draws between runs when one is named (``autograder.hidden.keep``);
 - the sandboxes (one per concurrent grading, opened when first needed, each hiding the same one
   list: ``hidden_paths``), and the grading workers (``autograder.workers.WorkerPool``);
 - the session budget (``autograder.budget``), handed to the plugin as ``--budget``;
@@ -48,6 +49,7 @@ from .config import GradingConfig, configuration, load_config, tests_fingerprint
 from .grade import run_session
 from .hidden import inputs
 from .hidden.inputs import HiddenInputs, build_hidden_inputs
+from .hidden.keep import Keep, default_keep
 from .results import SubmissionResult
 from .sandbox import ResourceLimits, Sandbox, leftovers
 from .workers import WorkerPool
@@ -115,6 +117,9 @@ class GradingRun:
         the hidden plugin's ``--pictures``); each result then carries its record
         (``SubmissionResult.pictures``).  ``grade(..., pictures=...)`` decides for one call.  The
         canary never runs it.
+    keep : a folder of the grader's own where hidden inputs and draws made once are kept for the
+        next runs (``autograder.hidden.keep``; default ``$HW4_KEEP_INPUTS``, else none); hidden
+        from student code.
 
     Attributes: ``record`` (the configuration record, isolation not yet known), ``hidden``
     (the hidden inputs, once made), ``timing`` (seconds of each set-up step, for staff),
@@ -126,12 +131,15 @@ class GradingRun:
                  hide: Sequence[str | os.PathLike | None] = (), extra_tests: Sequence[str | os.PathLike] = (),
                  isolation: str = "auto", limits: ResourceLimits | None = None, allow_weak: bool = False,
                  kit_root: str | os.PathLike = KIT_ROOT, deadline: float | None = None,
-                 key: str | os.PathLike | None = None, sandbox: Sandbox | None = None, pictures: bool = False):
+                 key: str | os.PathLike | None = None, sandbox: Sandbox | None = None, pictures: bool = False,
+                 keep: str | os.PathLike | None = None):
         self.config = config if config is not None else load_config()
         self.extra_tests = [Path(p).resolve() for p in extra_tests]
         self.record = configuration(self.config, tests=tests_fingerprint(self.extra_tests))
         self.hidden = hidden_inputs
-        self.hide = hidden_paths(*hide, self.config.source, self.config.official_dir(), *self.extra_tests)
+        self.keep = Keep(keep) if keep is not None else default_keep()
+        self.hide = hidden_paths(*hide, self.config.source, self.config.official_dir(), *self.extra_tests,
+                                 self.keep.folder if self.keep is not None else None)
         self.isolation, self.limits, self.allow_weak = isolation, limits, allow_weak
         self.kit_root = Path(kit_root)
         self.deadline = deadline
@@ -175,7 +183,7 @@ class GradingRun:
         try:
             t = time.monotonic()
             if self.hidden is None:
-                self.hidden = build_hidden_inputs(self.config)
+                self.hidden = build_hidden_inputs(self.config, keep=self.keep)
             self.timing["hidden_inputs_seconds"] = round(time.monotonic() - t, 3)
             folder, fd = leftovers.owned_folder("hw4-hidden-")  # 0700; a sweep removes it if we are killed
             self._cache, self._cache_fd = folder, fd
@@ -278,7 +286,8 @@ class GradingRun:
         options = ["--grading-config", str(self._cache / "config.json"), "--hidden-cache", str(self._cache),
                    "--sandbox-spec", str(self._spec(box)), "--stamp", str(self._cache / "stamp.json"),
                    f"--student-id={student_id or path.name}", "--budget", repr(budget),
-                   *(["--secret-scenes"] if secret_scenes else [])]
+                   *(["--secret-scenes"] if secret_scenes else []),
+                   *(["--keep", str(self.keep.folder)] if self.keep is not None else [])]
         result, got = run_session(self.pool, path, folder=self._cache, options=options,
                                   timeout=backstop_of(self.hidden, limits, deadline),
                                   extra_tests=self.extra_tests, pictures=pictures)

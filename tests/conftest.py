@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -93,6 +96,30 @@ def pytest_cmdline_main(config):
     if option.numprocesses and option.dist == "no":
         option.dist = "loadfile"       # a module's fixtures are computed once, in one process
         option.loadscopereorder = False  # the files in COSTLIEST_FIRST's order (xdist's: most tests first)
+
+
+# One keep (autograder.hidden.keep) for the whole suite, made by the first process and inherited by
+# the others and by every grader a test starts: many tests grade the same code under the same
+# settings (copies of the answer key, quick_config), and each value is made once, by the first
+# test that needs it.  A keep already named in the environment is used as it is, and kept.
+_SUITE_KEEP: list[str] = []
+
+
+def pytest_configure(config):
+    from autograder.hidden.keep import ENV_KEEP
+
+    if not hasattr(config, "workerinput") and not os.environ.get(ENV_KEEP):
+        folder = tempfile.mkdtemp(prefix="kit-suite-keep-")  # 0700
+        _SUITE_KEEP.append(folder)
+        os.environ[ENV_KEEP] = folder
+
+
+def pytest_unconfigure(config):
+    from autograder.hidden.keep import ENV_KEEP
+
+    while _SUITE_KEEP:
+        shutil.rmtree(_SUITE_KEEP.pop(), ignore_errors=True)
+        os.environ.pop(ENV_KEEP, None)
 
 
 # The files that took longest in the last two-process run (their tests' summed times), first: with two

@@ -27,6 +27,7 @@ import pytest
 from autograder.run import GradingRun
 from autograder.batch import ConfigurationMismatch, grade_batch
 from autograder.config import configuration_changes, load_config, quick_config
+from autograder.hidden.keep import ENV_KEEP
 from autograder.regrade import accept, diff_folders
 from autograder.sandbox import ResourceLimits, Sandbox
 from core.paths import KIT_ROOT
@@ -102,9 +103,11 @@ def build(root: Path, name: str, as_name: str | None = None) -> Path:
     return target
 
 
-def cli(args, config_file: Path, *, pictures: bool = False, **kw) -> subprocess.Popen:
+def cli(args, config_file: Path, *, pictures: bool = False, keep: bool = True, **kw) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(KIT_ROOT)}
     env.pop("HW4_COURSE_DATA", None)
+    if not keep:  # the hidden inputs made afresh, not read from the suite's keep (tests/conftest.py)
+        env.pop(ENV_KEEP, None)
     # Text feedback unless asked: the pictures' step is this file's subject once (one Ctrl-C).
     argv = [sys.executable, "-m", "autograder", "grade", *map(str, args), "--config", str(config_file), "--quiet",
             *([] if pictures else ["--no-pictures"])]
@@ -479,7 +482,8 @@ def test_ctrl_c_during_set_up_stops_at_once_recording_nothing(tmp_path, config_f
     out = tmp_path / "graded"
     args = [*subs, "--out", out, "--jobs", "2"]
     ignore = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint == "ignored" else None
-    proc = cli(args, config_file, preexec_fn=ignore)
+    # Made afresh, the hidden inputs take seconds: the window the first phase's signal falls in.
+    proc = cli(args, config_file, preexec_fn=ignore, keep=phase != "hidden inputs")
     mine = lambda kind: list(Path(tempfile.gettempdir()).glob(f"hw4-{kind}-{proc.pid}-*"))  # noqa: E731
     seen: dict[int, int] = {}
 

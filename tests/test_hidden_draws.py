@@ -75,7 +75,7 @@ def test_a_grading_process_hands_the_same_code_a_copy_of_its_draw_and_other_code
     monkeypatch.setattr(plugin, "_DRAWS_KEPT", 2)
     made = []
     real = inputs.draw
-    monkeypatch.setattr(inputs, "draw", lambda b, salt: made.append(salt) or real(b, salt))
+    monkeypatch.setattr(inputs, "draw", lambda b, salt, **kw: made.append(salt) or real(b, salt, **kw))
     first = plugin._draw(batch, "c" * 32)
     as_made = _car(first).copy()
     first.prepared["multiview"].video[...] = -1.0  # a check that changed what it read

@@ -25,7 +25,8 @@ FULL = 90.0
 def test_one_run_grades_two_submissions_with_one_set_up(tmp_path, monkeypatch):
     made = []
     real_build = run_module.build_hidden_inputs
-    monkeypatch.setattr(run_module, "build_hidden_inputs", lambda config: made.append(config) or real_build(config))
+    monkeypatch.setattr(run_module, "build_hidden_inputs",
+                        lambda config, **kw: made.append(config) or real_build(config, **kw))
     sessions = []  # (student id option, pictures asked for) of each pytest session
     real_session = run_module.run_session
 

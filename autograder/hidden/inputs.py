@@ -14,6 +14,8 @@ submission (the default data, the official data and the reference's results on t
 from the batch's inputs, so a draw costs only what depends on the submission (two temple
 renders, the reference on them, about 2 s).  The canary grades the answer key on the batch's
 inputs themselves.  ``build_hidden_inputs(config, salt=...)`` is the draw of a salt in one call.
+Given a keep (``autograder.hidden.keep``), both are read back when the same kit made them before
+under the same settings, and kept when made.
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ from pathlib import Path
 
 from autograder.config import GradingConfig
 
-from .cases import call_seconds, draw_all, prepare_all
+from .cases import call_seconds, draw_all, prepare_all, with_fixed
+from .keep import Keep, files_digest
 from .scenes import Scenes, make_scenes
 
 __all__ = ["HiddenInputs", "build_hidden_inputs", "code_salt", "draw", "load", "save"]
@@ -58,24 +61,30 @@ class HiddenInputs:
 
 
 @lru_cache(maxsize=4)
-def build_hidden_inputs(config: GradingConfig, *, salt: str | None = None) -> HiddenInputs:
+def build_hidden_inputs(config: GradingConfig, *, salt: str | None = None, keep: Keep | None = None) -> HiddenInputs:
     """Make (once per config, salt and process) every hidden input and the reference's results on them.
 
     salt : None (default): the batch's inputs, from the secret alone.  A str (``code_salt`` of a
         submission): that submission's draw (``draw`` of the batch's inputs).
+    keep : a ``keep.Keep`` to read them from when they were made before (then without their
+        scenes, which only their making needs), and to keep them in when made here.
     """
     if salt is not None:
-        return draw(build_hidden_inputs(config), salt)
-    scenes = make_scenes(config)
-    return HiddenInputs(config, scenes, prepare_all(scenes))
+        return draw(build_hidden_inputs(config, keep=keep), salt, keep=keep)
+    if keep is None:
+        scenes = make_scenes(config)
+        return HiddenInputs(config, scenes, prepare_all(scenes))
+    parts = ("batch", config.fingerprint(), files_digest(config.official_dir()))
+    return HiddenInputs(config, None, keep.fetch(parts, lambda: prepare_all(make_scenes(config))))
 
 
-def draw(batch: HiddenInputs, salt: str) -> HiddenInputs:
+def draw(batch: HiddenInputs, salt: str, *, keep: Keep | None = None) -> HiddenInputs:
     """The hidden inputs of the submission whose ``code_salt`` is ``salt``, under ``batch``'s config.
 
     The hidden temples, the cars and every random choice of the checks are drawn from the secret
     and ``salt``; the default and official data's parts are ``batch``'s.  The result's ``draw``
-    names it (a short digest).
+    names it (a short digest).  With a ``keep`` (``keep.Keep``), what depends on ``salt`` is read
+    from it when made before, else made and kept; the result then has no scenes.
 
     Raises
     ------
@@ -86,8 +95,13 @@ def draw(batch: HiddenInputs, salt: str) -> HiddenInputs:
         raise ValueError(f"salt: expected a non-empty str (code_salt of a submission), got {salt!r}")
     if batch.draw is not None:
         raise ValueError(f"batch: expected the batch's inputs (draw None), got the draw {batch.draw}")
-    scenes = make_scenes(batch.config, salt=salt, fixed=False)
-    return HiddenInputs(batch.config, scenes, draw_all(scenes, batch.prepared), batch.config.draw_digest(salt))
+    config = batch.config
+    if keep is None:
+        scenes = make_scenes(config, salt=salt, fixed=False)
+        return HiddenInputs(config, scenes, draw_all(scenes, batch.prepared), config.draw_digest(salt))
+    own = keep.fetch(("draw", config.fingerprint(), salt),
+                     lambda: prepare_all(make_scenes(config, salt=salt, fixed=False)))
+    return HiddenInputs(config, None, with_fixed(own, batch.prepared, config), config.draw_digest(salt))
 
 
 def code_salt(submission) -> str:

@@ -252,6 +252,7 @@ def pytest_addoption(parser):
     g.addoption("--student-id", default=None, help="the gradebook name of the submission")
     g.addoption("--budget", type=float, default=None, help="seconds for the whole submission (default: from the checks)")
     g.addoption("--stamp", default=None, help="JSON of the run's configuration record, stamped on the result")
+    g.addoption("--keep", default=None, help="the run's keep folder (autograder.hidden.keep): draws made before")
     g.addoption("--secret-scenes", action="store_true", default=False,
                 help="grade on the batch's own inputs (the scenes of the secret alone), not on the submission's "
                      "draw: the canary's session")
@@ -289,6 +290,7 @@ def hidden(request, grading_config):
     holding a draw already, are used as they are; without ``--submission`` or with
     ``--secret-scenes`` (the canary), the batch's."""
     from autograder.hidden import inputs
+    from autograder.hidden.keep import Keep
 
     local = _local(request.config)
     if local is not None and getattr(local, "hidden", None) is not None:
@@ -306,17 +308,19 @@ def hidden(request, grading_config):
             or request.config.getoption("--secret-scenes")):
         request.config._hw4["draw"] = batch.draw
         return batch
-    drawn = _draw(batch, inputs.code_salt(request.getfixturevalue("submission")))
+    keep = request.config.getoption("--keep")
+    drawn = _draw(batch, inputs.code_salt(request.getfixturevalue("submission")), Keep(keep) if keep else None)
     request.config._hw4["draw"] = drawn.draw
     return drawn
 
 
-def _draw(batch, salt: str):
+def _draw(batch, salt: str, keep=None):
     """The draw of ``salt`` from ``batch``, made here, in the grading process (outside the sandbox).
 
     The same code always gets the same draw, so this process keeps its last few, by salt, and
     hands the next submission of the same code (copies of the answer key, students handing in the
-    untouched notebooks, a regrade) a copy instead of making it again (about 3 s).  A
+    untouched notebooks, a regrade) a copy instead of making it again (about 3 s); the run's
+    ``keep`` (``autograder.hidden.keep``), when it has one, holds those of earlier runs.  A
     submission of other code never sees them: its salt is another."""
     from autograder.hidden import inputs
 
@@ -326,7 +330,7 @@ def _draw(batch, salt: str):
             _drawn.pop(next(iter(_drawn)))
         # Kept without its scenes (the checks read only the prepared inputs); the batch kept
         # alive, as its id names it.
-        _drawn[key] = (batch, dataclasses.replace(inputs.draw(batch, salt), scenes=None))
+        _drawn[key] = (batch, dataclasses.replace(inputs.draw(batch, salt, keep=keep), scenes=None))
     kept = _drawn[key][1]
     return dataclasses.replace(kept, prepared=copy.deepcopy(kept.prepared))  # a check may change its copy only
 

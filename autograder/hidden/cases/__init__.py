@@ -30,7 +30,7 @@ from .multiview import prepare_multiview
 from .pose import prepare_pose
 from .triangulation import prepare_triangulation
 
-__all__ = ["CONCEPTS", "M1", "SECONDS", "call_seconds", "draw_all", "matching_labels", "prepare_all"]
+__all__ = ["CONCEPTS", "M1", "SECONDS", "call_seconds", "draw_all", "matching_labels", "prepare_all", "with_fixed"]
 
 
 CONCEPTS = {
@@ -51,7 +51,12 @@ def draw_all(scenes: Scenes, batch: dict) -> dict:
     if scenes.default is not None or scenes.official is not None:
         raise ValueError("scenes: expected a draw without the default and official data (make_scenes(fixed=False)), "
                          "got one with them")
-    drawn = prepare_all(scenes)
+    return with_fixed(prepare_all(scenes), batch, scenes.config)
+
+
+def with_fixed(drawn: dict, batch: dict, config) -> dict:
+    """``drawn`` (``prepare_all`` of a draw's scenes, made with ``fixed=False``) with what ``batch``
+    made from the default and official data put back in its place, under ``config``."""
     fixed = {name: [c for c in _cases_of(name, batch[name]) if c.label in FIXED_LABELS] for name in drawn}
     f, t, p = drawn["fundamental"], drawn["triangulation"], drawn["pose"]
     # (Q2's noise-free and uint16 cases are made from the draw's own hidden scenes: cases.fundamental.)
@@ -60,7 +65,7 @@ def draw_all(scenes: Scenes, batch: dict) -> dict:
         "fundamental": dataclasses.replace(f, cases=(*f.cases, *fixed["fundamental"])),
         "triangulation": dataclasses.replace(t, noisy=(*t.noisy, *fixed["triangulation"])),
         "pose": dataclasses.replace(p, cases=(*p.cases, *fixed["pose"])),
-        "correspondence": combine_correspondence(drawn["correspondence"], batch["correspondence"], scenes.config),
+        "correspondence": combine_correspondence(drawn["correspondence"], batch["correspondence"], config),
     }
 
 
