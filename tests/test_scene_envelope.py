@@ -3,7 +3,7 @@
 Scenes: the default data's (scenes.defaults.default_temple), the public self-checks' (the generated
 temple and its K1 != K2 pair of starter/checks/_scenes.py), and the hidden draws of
 ``make_scenes`` under ``quick_config`` and the default ``GradingConfig`` for the secret sweep's
-secrets (CI's 4, the release sweep's 20: tests/breadth.py; their temples and the K1 != K2 pair
+secrets (CI's 2, the release sweep's 20: tests/breadth.py; their temples and the K1 != K2 pair
 the hidden Q3.1 and Q3.2 use).  Only what the checks need is made: the hidden draws without the
 default data (``fixed=False``), in two forked processes.
 
