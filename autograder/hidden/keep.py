@@ -26,6 +26,7 @@ import os
 import pickle
 import platform
 import stat
+import threading
 import zlib
 from collections.abc import Callable
 from functools import lru_cache
@@ -67,12 +68,10 @@ class Keep:
         path = self.folder / f"{name}.pickle.z"
         try:
             return pickle.loads(zlib.decompress(path.read_bytes()))  # noqa: S301 - the grader's own 0700 folder
-        except FileNotFoundError:
+        except Exception:  # noqa: BLE001 - missing, or unreadable (a disk that filled up): made, written over
             pass
-        except (OSError, zlib.error, pickle.UnpicklingError, EOFError, AttributeError, ImportError):
-            pass  # unreadable (a disk that filled up, say): made again, and written over
         value = make()
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         with os.fdopen(fd, "wb") as fh:
             fh.write(zlib.compress(pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL), 1))
