@@ -28,6 +28,7 @@ from hidden_files import files_grading
 from autograder.batch import grade_batch
 from autograder.config import quick_config
 from autograder.hidden.inputs import build_hidden_inputs
+from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import LocalStudent, run_here
 from autograder.sandbox import ResourceLimits
 
@@ -41,7 +42,7 @@ def config():
 
 @pytest.fixture(scope="module")
 def hidden(config):
-    return build_hidden_inputs(config)
+    return build_hidden_inputs(config, keep=default_keep())  # the suite's keep
 
 
 def _reference() -> dict:

@@ -3,8 +3,8 @@ grade``), by Gradescope's ``run_autograder`` in a folder laid out like /autograd
 nbgrader course (``nbgrader autograde`` then ``python -m autograder nbgrader-grade``) get
 identical per-question scores, each on its own hidden draw, the same draw in every channel.  All
 three grade through one ``autograder.run.GradingRun``: each result is stamped by it with the same
-configuration key.  Slow:
-about two minutes on two cores (the channels run two at a time).
+configuration key.  ``nbgrader autograde`` runs with nbgrader's Execute step off (see
+``nbgrader_scores``).  Slow: about two minutes on two cores (the channels run two at a time).
 """
 
 from __future__ import annotations
@@ -93,7 +93,10 @@ def nbgrader_scores(setup) -> dict:
             p.unlink()
         for p in sorted(folder.glob("*.ipynb")):
             shutil.copy2(p, target / p.name)
-    nc.run_nbgrader(course, "autograde", "hw4", "--force", timeout=3600)
+    # Without nbgrader's own run of the notebooks in its kernel (about 20 CPU s a student): no
+    # point of the kit's comes from it (nbgrader-grade writes every hidden-check cell's), and
+    # tests/test_nbgrader_course.py runs it, a tampering student included.
+    nc.run_nbgrader(course, "autograde", "hw4", "--force", "--Execute.enabled=False", timeout=3600)
     results = nc.grade_course(course, config=load_config(), pictures=False)
     draws = {name: ((results[name].configuration or {}).get("draw"), (results[name].configuration or {}).get("key"))
              for name in FIVE}

@@ -22,6 +22,7 @@ import pytest
 from autograder.config import quick_config
 from autograder.hidden.feedback import PARAMETERS, called_as, read_returned, returned
 from autograder.hidden.inputs import build_hidden_inputs
+from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from autograder.sandbox import CallOutcome
 from judging.verdict import Malformed
@@ -43,7 +44,7 @@ LEAK = "the inputs were"
 
 @pytest.fixture(scope="module")
 def hidden():
-    return build_hidden_inputs(quick_config())
+    return build_hidden_inputs(quick_config(), keep=default_keep())  # the suite's keep
 
 
 def _reference() -> dict:

@@ -14,12 +14,13 @@ import pytest
 import solutions
 from autograder.config import quick_config
 from autograder.hidden.inputs import build_hidden_inputs
+from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 
 
 @pytest.fixture(scope="module")
 def hidden():
-    return build_hidden_inputs(quick_config())
+    return build_hidden_inputs(quick_config(), keep=default_keep())  # the suite's keep
 
 
 def _reference() -> dict:

@@ -14,6 +14,7 @@ import pytest
 
 from autograder.config import quick_config
 from autograder.hidden.inputs import build_hidden_inputs
+from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import LocalStudent, run_here
 from judging import correspondence as jc
 
@@ -135,7 +136,7 @@ def _compute3D_with(matcher):
 
 @pytest.fixture(scope="module", params=SECRETS)
 def hidden(request):
-    return build_hidden_inputs(quick_config(secret=request.param))
+    return build_hidden_inputs(quick_config(secret=request.param), keep=default_keep())  # the suite's keep
 
 
 def _questions(hidden, **replaced) -> dict:

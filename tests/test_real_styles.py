@@ -201,9 +201,10 @@ _WORK: dict = {}  # secret -> [(program run, [(concept, program names sharing it
 
 def _grade_secret(secret: str):
     from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.hidden.keep import default_keep
     from test_secret_sweep import grade
 
-    hidden = build_hidden_inputs(quick_config(secret=secret))
+    hidden = build_hidden_inputs(quick_config(secret=secret), keep=default_keep())  # the suite's keep
     out, seconds = {}, {}
     for name, shared in _WORK.get(secret, ()):
         loaded = _LOADED[name]

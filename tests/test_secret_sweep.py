@@ -254,9 +254,10 @@ def grade_secret(secret: str) -> tuple[str, dict]:
     built once for all the programs."""
     from autograder.config import quick_config
     from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.hidden.keep import default_keep
 
     started = time.perf_counter()
-    hidden = build_hidden_inputs(quick_config(secret=secret))
+    hidden = build_hidden_inputs(quick_config(secret=secret), keep=default_keep())  # the suite's keep
     graded, seconds = {}, {"(hidden inputs)": time.perf_counter() - started}
     for p in _PROGRAMS:
         if p.concepts and secret in p.secrets:

@@ -16,6 +16,7 @@ import pytest
 
 from autograder.config import quick_config
 from autograder.hidden.inputs import build_hidden_inputs
+from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from core.geometry import IDENTITY_POSE, depths
 from judging import pose as jp
@@ -182,7 +183,7 @@ def _q33(hidden, findM2):
 
 @pytest.fixture(scope="module", params=SECRETS)
 def hidden(request):
-    return build_hidden_inputs(quick_config(secret=request.param))
+    return build_hidden_inputs(quick_config(secret=request.param), keep=default_keep())  # the suite's keep
 
 
 def test_the_hidden_test_fails_depth_in_camera_1_only_and_names_it(hidden):
