@@ -52,7 +52,7 @@ from core.validate import as_positive_scalar
 __all__ = [
     "DEV_SECRET", "ENV_CONFIG", "ENV_SECRET", "GRADER_VERSION", "GradingConfig", "TempleSpec",
     "configuration", "configuration_changes", "configuration_key", "load_config", "quick_config",
-    "tests_fingerprint",
+    "data_digest", "tests_fingerprint", "tree_digest",
 ]
 
 ENV_CONFIG = "HW4_GRADER_CONFIG"
@@ -322,8 +322,15 @@ def tests_fingerprint(extra_tests=()) -> dict:
     return {"digest": every, "hidden": h, "judging": j, "extra": e, "files": {**h_files, **j_files, **e_files}}
 
 
-def _data_digest(folder: Path) -> str:
-    return _files_digest(_tree(folder, "**/*", "data"))[0]
+def tree_digest(root: Path, pattern: str, label: str) -> str:
+    """A digest (16 hex digits) of the files under ``root`` matching ``pattern``: their names
+    (relative to ``root``, after ``label``) and contents."""
+    return _files_digest(_tree(root, pattern, label))[0]
+
+
+def data_digest(folder: Path) -> str:
+    """The digest a configuration records of a data folder (every file under it)."""
+    return tree_digest(folder, "**/*", "data")
 
 
 def configuration(config: GradingConfig, *, extra_tests=(), isolation: str | None = None,
@@ -348,7 +355,7 @@ def configuration(config: GradingConfig, *, extra_tests=(), isolation: str | Non
         "dev_secret": config.is_dev,
         "data": {"default_data": bool(config.use_default_data),
                  "official_data": str(official) if official is not None else None,
-                 "official_digest": _data_digest(official) if official is not None else None},
+                 "official_digest": data_digest(official) if official is not None else None},
         "settings": settings,
         "tests": tests if tests is not None else tests_fingerprint(extra_tests),
         "isolation": isolation,

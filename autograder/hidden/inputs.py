@@ -30,10 +30,10 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
-from autograder.config import GradingConfig
+from autograder.config import GradingConfig, data_digest
 
 from .cases import call_seconds, draw_all, prepare_all, with_fixed
-from .keep import Keep, files_digest
+from .keep import Keep
 from .scenes import Scenes, make_scenes
 
 __all__ = ["HiddenInputs", "build_hidden_inputs", "code_salt", "draw", "load", "save"]
@@ -74,7 +74,8 @@ def build_hidden_inputs(config: GradingConfig, *, salt: str | None = None, keep:
     if keep is None:
         scenes = make_scenes(config)
         return HiddenInputs(config, scenes, prepare_all(scenes))
-    parts = ("batch", config.fingerprint(), files_digest(config.official_dir()))
+    official = config.official_dir()
+    parts = ("batch", config.fingerprint(), data_digest(official) if official is not None else "none")
     return HiddenInputs(config, None, keep.fetch(parts, lambda: prepare_all(make_scenes(config))))
 
 

@@ -32,10 +32,11 @@ from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
 
+from autograder.config import tree_digest
 from core.paths import KIT_ROOT
 from core.shipping import GRADER_PACKAGES
 
-__all__ = ["ENV_KEEP", "Keep", "code_digest", "default_keep", "files_digest"]
+__all__ = ["ENV_KEEP", "Keep", "code_digest", "default_keep"]
 
 ENV_KEEP = "HW4_KEEP_INPUTS"
 
@@ -92,18 +93,6 @@ def code_digest() -> str:
     import numpy
     import scipy
 
-    h = hashlib.sha256(f"{platform.python_version()}\x00{numpy.__version__}\x00{scipy.__version__}".encode())
-    for package in GRADER_PACKAGES:
-        for path in sorted((KIT_ROOT / package).rglob("*.py")):
-            h.update(b"\x00" + str(path.relative_to(KIT_ROOT)).encode() + b"\x00" + path.read_bytes())
-    return h.hexdigest()
-
-
-def files_digest(folder: Path | None) -> str:
-    """A digest of every file under ``folder`` (names and contents); "none" for None."""
-    if folder is None:
-        return "none"
-    h = hashlib.sha256()
-    for path in sorted(p for p in Path(folder).rglob("*") if p.is_file()):
-        h.update(b"\x00" + str(path.relative_to(folder)).encode() + b"\x00" + path.read_bytes())
-    return h.hexdigest()
+    parts = [platform.python_version(), numpy.__version__, scipy.__version__,
+             *(tree_digest(KIT_ROOT / package, "**/*.py", package) for package in GRADER_PACKAGES)]
+    return hashlib.sha256("\x00".join(parts).encode()).hexdigest()
