@@ -237,4 +237,4 @@ def _probe(rt: Runtime, scratch: Path) -> tuple[str | None, str | None, str | No
         shutil.rmtree(jobdir, ignore_errors=True)
         if rt.uid is not None:
             sweep_uid(rt.uid)
-            remove_files_of_uid(rt.uid)
+            remove_files_of_uid(rt.uid, rt.shared_tmp_dirs())

@@ -19,7 +19,7 @@ from pathlib import Path
 from core.paths import RESULT_FOLDERS
 
 from .model import ResourceLimits
-from .uids import count_processes
+from .uids import SHARED_TMP_DIRS, count_processes
 
 __all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "RESULT_DIRS", "SCRATCH_DIRS", "Runtime", "command", "env", "make_workdir", "popen_options",
            "python_dirs_in_private_tmp", "unreachable_python_dirs"]
@@ -61,6 +61,15 @@ class Runtime:
     @property
     def namespaced(self) -> bool:
         return self.level in ("namespaces", "user-namespaces")
+
+    def shared_tmp_dirs(self) -> tuple[str, ...]:
+        """The machine's shared temporary folders (``uids.SHARED_TMP_DIRS``) the code can leave
+        files in: all of them, but those its own tmpfs covers (``PRIVATE_TMP_DIRS``, at the
+        namespace levels with a private /tmp), which vanish with the namespace."""
+        if not (self.namespaced and self.private_tmp):
+            return SHARED_TMP_DIRS
+        private = {os.path.realpath(d) for d in PRIVATE_TMP_DIRS if os.path.isdir(d)}
+        return tuple(d for d in SHARED_TMP_DIRS if os.path.realpath(d) not in private)
 
     def lib_inside(self) -> Path:
         """Where the lib folder is seen from inside the sandbox."""

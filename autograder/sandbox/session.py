@@ -499,7 +499,9 @@ class Session:
             if self.rt.uid is not None:
                 # Its processes are gone and its scratch folder with them: what its uid left in /tmp,
                 # /var/tmp, /dev/shm... goes too (found by owner, links not followed), counted for staff.
-                n, size = remove_files_of_uid(self.rt.uid)
+                # Behind a private /tmp only /run/lock is shared: walking the host's /tmp (every
+                # folder in it that others may enter) would cost each session a second or more.
+                n, size = remove_files_of_uid(self.rt.uid, self.rt.shared_tmp_dirs())
                 self.removed[0] += n
                 self.removed[1] += size
 
