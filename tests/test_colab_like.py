@@ -108,7 +108,19 @@ def colab_requirements() -> list[str]:
 
 
 def colab_python() -> Path:
-    """The kernel environment's python, made (once, then cached) when missing or outdated."""
+    """The kernel environment's python, made (once, then cached) when missing or outdated.
+
+    Made under a lock: .ci/run makes it in the background while the suite starts, and this test
+    then waits for that instead of making it a second time over the first."""
+    import fcntl
+
+    COLAB_VENV.parent.mkdir(parents=True, exist_ok=True)
+    with open(COLAB_VENV.with_name(COLAB_VENV.name + ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        return _made_colab_venv()
+
+
+def _made_colab_venv() -> Path:
     py = COLAB_VENV / "bin" / "python"
     stamp = COLAB_VENV / "hw4-colab-requirements.txt"
     wanted = "\n".join(colab_requirements()) + "\n"
