@@ -31,6 +31,7 @@ from autograder.config import (
 )
 from autograder.batch import grade_batch, submission_digest
 from autograder.hidden.inputs import build_hidden_inputs
+from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from autograder.key import write_key_submission
 from autograder.results import autograded_question_ids
@@ -53,7 +54,7 @@ def config() -> GradingConfig:
 
 @pytest.fixture(scope="module")
 def hidden(config):
-    return build_hidden_inputs(config)
+    return build_hidden_inputs(config, keep=default_keep())  # the suite's keep: the checks read no scenes
 
 
 @pytest.fixture(scope="module")
