@@ -31,7 +31,6 @@ from autograder.config import (
 )
 from autograder.batch import grade_batch, submission_digest
 from autograder.hidden.inputs import build_hidden_inputs
-from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from autograder.key import write_key_submission
 from autograder.results import autograded_question_ids
@@ -54,7 +53,7 @@ def config() -> GradingConfig:
 
 @pytest.fixture(scope="module")
 def hidden(config):
-    return build_hidden_inputs(config, keep=default_keep())  # the suite's keep: the checks read no scenes
+    return build_hidden_inputs(config)  # with its scenes (the hard-coded answers come from one)
 
 
 @pytest.fixture(scope="module")
