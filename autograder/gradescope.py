@@ -253,7 +253,6 @@ def hidden_inputs_file(scratch: Path) -> list[tuple[str, Path]]:
     (the canary grades the key on them; each submission's draw is made in its container)."""
     from .config import load_config
     from .hidden import inputs
-
     from .hidden.keep import default_keep
 
     config = load_config(scratch / CONFIG_NAME, environ={})
