@@ -12,11 +12,20 @@
 ``python -m kit data`` rewrites data/ from these.
 """
 
-from .cameras import intrinsics, look_at, projection, rotation_about
-from .car import CarScene, make_car_scene, write_car
-from .temple import TempleScene, make_temple_scene, write_temple
+import importlib
 
-__all__ = [
-    "TempleScene", "make_temple_scene", "write_temple", "CarScene", "make_car_scene", "write_car",
-    "intrinsics", "look_at", "projection", "rotation_about",
-]
+# name -> the submodule that defines it.  They load on first use (PEP 562): a notebook that imports
+# only scenes.cameras must not pay for the temple renderer's scipy.ndimage and scipy.spatial, about
+# 0.3 s in every kernel and in every sandboxed process that loads a student's notebooks.
+_HOMES = {
+    "TempleScene": "temple", "make_temple_scene": "temple", "write_temple": "temple",
+    "CarScene": "car", "make_car_scene": "car", "write_car": "car",
+    "intrinsics": "cameras", "look_at": "cameras", "projection": "cameras", "rotation_about": "cameras",
+}
+__all__ = list(_HOMES)
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
