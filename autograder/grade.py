@@ -28,7 +28,11 @@ def pytest_command(submission: Path, *, extra_tests: Sequence[Path] = (), option
     (and ``extra_tests``).  Values a student names (the submission, its gradebook name) are joined
     to their option with "=": a separate "-1+1" would be read as an option, "@SUM" as a file of
     arguments (pytest's @file)."""
-    return ["-q", "-W", "ignore::pytest.PytestAssertRewriteWarning", "-p", "no:cacheprovider", "-p", "autograder.hidden.plugin",
+    # No unraisable-exception plugin: it forces two full garbage collections at the end of every
+    # session (a seventh of the worker's time per submission), and the student's code, whose
+    # finalizers it would report, never runs in the worker.
+    return ["-q", "-W", "ignore::pytest.PytestAssertRewriteWarning", "-p", "no:cacheprovider",
+            "-p", "no:unraisableexception", "-p", "autograder.hidden.plugin",
             "-c", str(HIDDEN_DIR / "pytest.ini"), "--rootdir", str(HIDDEN_DIR), "--no-header", "-o",
             "console_output_style=classic", str(HIDDEN_DIR), *[str(p) for p in extra_tests],
             f"--submission={submission}", *options]
