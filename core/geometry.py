@@ -16,6 +16,7 @@ student's input belongs to ``core.validate``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -160,9 +161,11 @@ def symmetric_epipolar_cost_of(pts1, pts2):
         l2 = h1 @ F.T
         l1 = h2 @ F
         r2 = np.einsum("ij,ij->i", h2, l2) ** 2
+        # The array methods and math.isfinite do what np.sum and np.isfinite do, bit for bit,
+        # without their dispatch, which was a tenth of an evaluation.
         with np.errstate(divide="ignore", invalid="ignore"):
-            total = float(np.sum(r2 / (l2[:, 0] ** 2 + l2[:, 1] ** 2)) + np.sum(r2 / (l1[:, 0] ** 2 + l1[:, 1] ** 2)))
-        return total if np.isfinite(total) else np.inf
+            total = float((r2 / (l2[:, 0] ** 2 + l2[:, 1] ** 2)).sum() + (r2 / (l1[:, 0] ** 2 + l1[:, 1] ** 2)).sum())
+        return total if math.isfinite(total) else np.inf
 
     return cost
 
