@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from autograder.sandbox import ResourceLimits, Sandbox, live_pids_of_uid
+from autograder.sandbox.script import MPL_CACHE
 from core import wire
 from autograder.submission import parse_cells
 from core.paths import KIT_ROOT
@@ -115,6 +116,21 @@ def test_student_can_import_numpy_scipy_matplotlib_and_the_kit(box):
     assert r.load_errors == ()
     assert r["f"].status == "ok", r["f"].message
     assert r["f"].value[0] == "float64" and abs(r["f"].value[1] - 2) < 1e-9
+
+
+def test_every_sandbox_of_a_process_gives_its_children_the_font_list(box):
+    # The font list is made once per grader process and written into each later Sandbox's lib;
+    # a child must find it in its config folder before matplotlib loads, or it scans the fonts itself.
+    src = ("import os\n"
+           "HAD = sorted(os.listdir(os.environ['MPLCONFIGDIR'])) if os.path.isdir(os.environ['MPLCONFIGDIR']) else []\n"
+           "def had():\n    return HAD\n")
+    made = sorted(p.name for p in (box.runtime.lib / MPL_CACHE).glob("fontlist-*.json"))
+    assert made
+    with Sandbox(KIT_ROOT, limits=LIMITS) as later:
+        assert [(later.runtime.lib / MPL_CACHE / n).read_bytes() for n in made] == \
+            [(box.runtime.lib / MPL_CACHE / n).read_bytes() for n in made]
+        r = run(later, src, Call("h", "had"))
+    assert r["h"].status == "ok" and r["h"].value == made, (r["h"].message, r["h"].value)
 
 
 def test_failing_import_loses_only_that_statement(box):
