@@ -13,10 +13,11 @@
 """
 
 import importlib
+import importlib.util
 
 # name -> the submodule that defines it.  They load on first use (PEP 562): a notebook that imports
-# only scenes.cameras must not pay for the temple renderer's scipy.ndimage and scipy.spatial, about
-# 0.3 s in every kernel and in every sandboxed process that loads a student's notebooks.
+# only scenes.cameras must not pay for the temple renderer's scipy.ndimage and scipy.spatial (0.1 to
+# 0.3 s in every kernel and in every sandboxed process that loads a student's notebooks).
 _HOMES = {
     "TempleScene": "temple", "make_temple_scene": "temple", "write_temple": "temple",
     "CarScene": "car", "make_car_scene": "car", "write_car": "car",
@@ -26,6 +27,8 @@ __all__ = list(_HOMES)
 
 
 def __getattr__(name: str):
-    if name not in _HOMES:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
+    if name in _HOMES:
+        return getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
+    if importlib.util.find_spec(f"{__name__}.{name}") is not None:  # scenes.temple after `import scenes`
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -405,3 +405,20 @@ def test_default_scene_statistics_are_comparable_to_the_official_pair(default, c
     assert official.shape == default.im1.shape
     assert abs((ours_grey > 60).mean() - (theirs_grey > 60).mean()) < 0.12
     assert 0.8 < ours_grey[ours_grey > 60].mean() / theirs_grey[theirs_grey > 60].mean() < 1.25
+
+
+def test_importing_the_camera_helpers_leaves_the_temple_renderer_unloaded():
+    # Every sandboxed child that loads a whole hand-in runs Q1's `from scenes.cameras import ...`:
+    # the renderer's scipy.ndimage and scipy.spatial load only when a scene is made.
+    import subprocess
+    import sys
+
+    from core.paths import KIT_ROOT
+
+    probe = ("import sys\nfrom scenes.cameras import intrinsics\nimport scenes\n"
+             "before = sorted(m for m in ('scenes.temple', 'scipy.ndimage', 'scipy.spatial') if m in sys.modules)\n"
+             "from scenes import make_temple_scene\n"
+             "print(before, make_temple_scene.__module__, scenes.car.__name__)\n")
+    out = subprocess.run([sys.executable, "-c", probe], cwd=KIT_ROOT, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["[]", "scenes.temple", "scenes.car"], out.stdout
