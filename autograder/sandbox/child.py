@@ -77,30 +77,78 @@ def _disarm():
 
 
 # seccomp: per machine this filter knows, the audit architecture and the numbers of the syscalls it
-# refuses: socket() (every family: IPv4 and IPv6, and Unix sockets, by path or in the abstract
-# namespace, which two sandboxes of one machine could meet through), io_uring_setup() (io_uring can
-# open sockets without calling socket()), and the System V and POSIX IPC objects that any uid may
-# name: shmget, semget, msgget, mq_open.  socketpair() is another syscall and stays allowed: it
-# makes a connected pair no other process can join (multiprocessing's Pipe(duplex=True) uses it).
+# refuses.  Two lists, reviewed against the whole syscall table of each machine (everything not
+# listed is either harmless to other submissions or already needs a capability the code lacks):
+#
+# - ALWAYS, at every level, namespaces included (these kernel objects are not namespaced by the
+#   pid, mount, net, ipc or uts namespaces, or escape the memory limit):
+#   keyctl, add_key, request_key: a uid's keyrings outlive its processes, so one submission could
+#     leave a note that the next one (the same sandbox uid) reads;
+#   memfd_create, memfd_secret: anonymous files whose pages RLIMIT_AS does not count (gigabytes
+#     past the memory limit);
+#   userfaultfd, perf_event_open, bpf: kernel interfaces no homework needs, each a known way to
+#     stall, observe or attack other processes;
+#   unshare, setns, and clone with a namespace flag: new namespaces would give the code a /tmp or
+#     /dev/shm of its own outside the limits and the clean-up's reach; clone3 (whose flags a
+#     filter cannot read) answers ENOSYS, so the C library falls back to clone, as under Docker.
+# - SOCKETS, where no network and ipc namespace exists (the uid and basic levels): socket() of every
+#   family (IPv4 and IPv6, and Unix sockets, by path or in the abstract namespace, which two
+#   sandboxes of one machine could meet through), io_uring_setup() (io_uring can open sockets
+#   without calling socket()), and the System V and POSIX IPC objects that any uid may name:
+#   shmget, semget, msgget, mq_open.  socketpair() is another syscall and stays allowed: it makes a
+#   connected pair no other process can join (multiprocessing's Pipe(duplex=True) uses it).
+#
+# Allowed on purpose: ptrace, process_vm_readv, kill and pidfd_* reach only the code's own
+# processes (its own uid; the grader's are root's or another uid's), and everything of its uid is
+# killed after each child.
 _SECCOMP_ARCH = {
-    "x86_64": (0xC000003E, {"socket": 41, "io_uring_setup": 425, "shmget": 29, "semget": 64, "msgget": 68,
-                            "mq_open": 240}),
-    "aarch64": (0xC00000B7, {"socket": 198, "io_uring_setup": 425, "shmget": 194, "semget": 190, "msgget": 186,
-                             "mq_open": 180}),
+    "x86_64": (0xC000003E, {
+        "always": {"keyctl": 250, "add_key": 248, "request_key": 249, "memfd_create": 319, "memfd_secret": 447,
+                   "userfaultfd": 323, "perf_event_open": 298, "bpf": 321, "unshare": 272, "setns": 308},
+        "sockets": {"socket": 41, "io_uring_setup": 425, "shmget": 29, "semget": 64, "msgget": 68, "mq_open": 240},
+        "clone": 56, "clone3": 435}),
+    "aarch64": (0xC00000B7, {
+        "always": {"keyctl": 219, "add_key": 217, "request_key": 218, "memfd_create": 279, "memfd_secret": 447,
+                   "userfaultfd": 282, "perf_event_open": 241, "bpf": 280, "unshare": 97, "setns": 268},
+        "sockets": {"socket": 198, "io_uring_setup": 425, "shmget": 194, "semget": 190, "msgget": 186, "mq_open": 180},
+        "clone": 220, "clone3": 435}),
 }
+# CLONE_NEWNS, CLONE_NEWCGROUP, CLONE_NEWUTS, CLONE_NEWIPC, CLONE_NEWUSER, CLONE_NEWPID, CLONE_NEWNET.
+_CLONE_NAMESPACES = 0x00020000 | 0x02000000 | 0x04000000 | 0x08000000 | 0x10000000 | 0x20000000 | 0x40000000
 
 
-def deny_internet():
-    """Refuse sockets and shared IPC objects to this process and everything it starts: None when done, else why not.
+def _filter_program(arch, table, sockets):
+    """The classic BPF program of the filter: a list of (code, jt, jf, k)."""
+    ld, jeq, jge, jset, ret = 0x20, 0x15, 0x35, 0x45, 0x06   # BPF_LD|W|ABS, JMP|JEQ|K, JMP|JGE|K, JMP|JSET|K, RET|K
+    allow, eacces, enosys = 0x7FFF0000, 0x00050000 | 13, 0x00050000 | 38   # SECCOMP_RET_ALLOW, RET_ERRNO|errno
+    refused = sorted({**table["always"], **(table["sockets"] if sockets else {})}.values())
+    # Instructions with symbolic targets, resolved below (a jump's offsets count from the next one).
+    code = [(ld, None, None, 4),                              # the architecture
+            (jeq, None, "deny", arch),                        # another ABI (x32, int 0x80): deny
+            (ld, None, None, 0),                              # the syscall number
+            (jge, "deny", None, 0x40000000)]                  # x32 syscalls: deny
+    code += [(jeq, "deny", None, nr) for nr in refused]
+    code += [(jeq, "enosys", None, table["clone3"]),
+             (jeq, None, "allow", table["clone"]),
+             (ld, None, None, 16),                            # clone's flags (the low half of args[0])
+             (jset, "deny", "allow", _CLONE_NAMESPACES)]
+    labels = {"allow": len(code), "deny": len(code) + 1, "enosys": len(code) + 2}
+    code += [(ret, None, None, allow), (ret, None, None, eacces), (ret, None, None, enosys)]
+    return [(op, 0 if jt is None else labels[jt] - i - 1, 0 if jf is None else labels[jf] - i - 1, k)
+            for i, (op, jt, jf, k) in enumerate(code)]
+
+
+def install_filter(sockets):
+    """Refuse this process and everything it starts the syscalls of the lists above (``ALWAYS``, and
+    ``SOCKETS`` too when ``sockets``): None when done, else why not.
 
     A seccomp filter (no capability needed once PR_SET_NO_NEW_PRIVS is set, so it works under
-    Docker's default capabilities): socket() of any family (internet and Unix sockets alike),
-    io_uring_setup, shmget, semget, msgget and mq_open fail with EACCES, and so does every syscall
+    Docker's default capabilities): the refused calls fail with EACCES, and so does every syscall
     of another ABI (x32, or 32-bit calls through int 0x80, which would go around the numbers
-    checked).  socketpair() and pipes keep working, and so do multiprocessing's fork-based Process,
-    Pool and Queue (pipes, and POSIX semaphores in /dev/shm); what needs a listening socket
-    (multiprocessing's Manager, the forkserver start method) does not.  Must run before any
-    thread starts (the filter covers the calling thread and those it starts later).
+    checked).  With ``sockets``, socketpair() and pipes keep working, and so do multiprocessing's
+    fork-based Process, Pool and Queue (pipes, and POSIX semaphores in /dev/shm); what needs a
+    listening socket (multiprocessing's Manager, the forkserver start method) does not.  Must run
+    before any thread starts (the filter covers the calling thread and those it starts later).
     """
     import ctypes
     import platform
@@ -109,21 +157,7 @@ def deny_internet():
     found = _SECCOMP_ARCH.get(platform.machine())
     if found is None:
         return f"no seccomp filter for the {platform.machine()} architecture"
-    arch, refused = found
-    numbers = sorted(refused.values())
-    ld, jeq, jge, ret = 0x20, 0x15, 0x35, 0x06        # BPF_LD|W|ABS, BPF_JMP|JEQ|K, BPF_JMP|JGE|K, BPF_RET|K
-    allow, deny = 0x7FFF0000, 0x00050000 | 13         # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO | EACCES
-    n = len(numbers)
-    # (code, jump if true, jump if false, k): instruction 4 + n allows, 5 + n denies.
-    program = [
-        (ld, 0, 0, 4),                                # 0: the architecture
-        (jeq, 0, 3 + n, arch),                        # 1: another ABI: deny
-        (ld, 0, 0, 0),                                # 2: the syscall number
-        (jge, 1 + n, 0, 0x40000000),                  # 3: x32 syscalls: deny
-    ]
-    for k, nr in enumerate(numbers):                  # 4 .. 3 + n: a refused syscall: deny
-        program.append((jeq, n - k, 0, nr))
-    program += [(ret, 0, 0, allow), (ret, 0, 0, deny)]
+    program = _filter_program(*found, sockets)
     code = b"".join(struct.pack("HBBI", *ins) for ins in program)
     buffer = ctypes.create_string_buffer(code, len(code))
 
@@ -138,6 +172,35 @@ def deny_internet():
     if libc.prctl(22, 2, ctypes.byref(prog), 0, 0) != 0:  # PR_SET_SECCOMP, SECCOMP_MODE_FILTER
         return f"the seccomp filter was refused: {os.strerror(ctypes.get_errno())}"
     return None
+
+
+def refused_calls_that_work():
+    """The names of the ALWAYS list's calls this process can still make (after ``install_filter``
+    nothing: the probe of every level checks it)."""
+    import ctypes
+    import platform
+
+    found = _SECCOMP_ARCH.get(platform.machine())
+    if found is None:
+        return ["(no filter for this architecture)"]
+    libc = ctypes.CDLL(None, use_errno=True)
+    works = []
+    for name in ("keyctl", "add_key", "memfd_create", "unshare"):
+        # Harmless arguments: KEYCTL_GET_KEYRING_ID of the session keyring without creating it, a key
+        # of an unknown type, a memfd of no size, unshare of nothing.
+        args = {"keyctl": (0, -3, 0), "add_key": (b"hw4-none", b"x", None, 0, -3), "memfd_create": (b"hw4", 0),
+                "unshare": (0,)}[name]
+        nr = found[1]["always"][name]
+        result = libc.syscall(ctypes.c_long(nr), *[a if isinstance(a, bytes) or a is None else ctypes.c_long(a)
+                                                    for a in args])
+        errno = ctypes.get_errno()
+        if result >= 0:
+            if name == "memfd_create":
+                os.close(result)
+            works.append(name)
+        elif errno != 13:  # EACCES is the filter's answer; any other error came from the kernel itself
+            works.append(name)
+    return works
 
 
 class _Channel:
@@ -588,12 +651,11 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
 
 
 def main(argv):
-    if "--deny-internet" in argv:
-        # First, while this process has one thread: student code must never run without it.
-        why = deny_internet()
-        if why is not None:
-            sys.stderr.write(f"sandbox: internet sockets could not be refused ({why})\n")
-            os._exit(70)
+    # First, while this process has one thread: student code must never run without the filter.
+    why = install_filter(sockets="--deny-internet" in argv)
+    if why is not None:
+        sys.stderr.write(f"sandbox: the syscall filter could not be installed ({why})\n")
+        os._exit(70)
     fd = int(argv[argv.index("--result-fd") + 1])
     os.set_inheritable(fd, False)
     channel = _Channel(fd)

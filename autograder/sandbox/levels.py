@@ -45,11 +45,14 @@ SHARED_TMP_DIRS_NO_WRITE = ("/tmp", "/var/tmp", "/run/lock")
 # folders; prints what it could read and where it could write, as JSON.
 _READ_PROBE = """\
 import json, os, socket, sys
-net = None
-if sys.argv[1] == "deny":
-    sys.path.insert(0, sys.argv[2])
-    import child
-    net = child.deny_internet()
+sys.path.insert(0, sys.argv[2])
+import child
+net = child.install_filter(sockets=sys.argv[1] == "deny")
+if net is None:
+    works = child.refused_calls_that_work()
+    if works:
+        net = "the syscall filter let through " + ", ".join(works)
+if net is None and sys.argv[1] == "deny":
     for family, what in ((socket.AF_INET, "an internet socket"), (socket.AF_UNIX, "a Unix socket")):
         if net is None:
             try:
@@ -98,6 +101,8 @@ def isolation_of(rt: Runtime, notes: tuple[str, ...] = (), weak: bool = False) -
         extra.append(f"hidden paths stay readable at this level; {net}")
     if rt.uid is None:
         extra.append("the code runs as the grader's own user")
+    extra.append("keyrings, memfd files, new namespaces, userfaultfd, perf events and BPF are refused by a "
+                 "seccomp filter (checked)")
     hidden = tuple(str(p) for p in rt.hidden) if namespaced or rt.level == "uid" else ()
     return Isolation(rt.level, rt.uid, namespaced, namespaced, namespaced and rt.private_tmp, hidden,
                      notes + tuple(extra), weak)
@@ -191,10 +196,14 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
     reason, net, tmp_note = _probe(rt, scratch)
     if rt.deny_internet and (reason is not None or net is not None):
         plain = dataclasses.replace(rt, deny_internet=False)
-        plain_reason, _, tmp_note = _probe(plain, scratch)
-        if plain_reason is None:  # the filter is what failed: the level works, the network stays reachable
+        plain_reason, plain_net, tmp_note = _probe(plain, scratch)
+        if plain_reason is None and plain_net is None:
+            # The sockets' part of the filter is what failed: the level works, the network stays reachable.
             notes.append(f"{level}: internet sockets could not be refused ({net or reason})")
-            rt, reason = plain, None
+            rt, reason, net = plain, None, None
+    if reason is None and net is not None:
+        # The part of the filter every level needs (keyrings, memfd, namespaces) did not hold.
+        reason = f"the sandbox's syscall filter does not work here ({net})"
     if reason is not None:
         release_uid(the_uid, fd)
         return reason, None
@@ -205,9 +214,9 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
 
 def _probe(rt: Runtime, scratch: Path) -> tuple[str | None, str | None, str | None]:
     """``(reason, net, tmp)``: reason is None when a trivial program runs in ``rt`` (at the ``uid``
-    level: as its uid, reading none of the hidden paths), else why not; net (with
-    ``rt.deny_internet``) is None when the seccomp filter was installed and refused an internet and
-    a Unix socket, else why not; tmp (``uid`` level) names the shared temporary folders the code
+    level: as its uid, reading none of the hidden paths), else why not; net is None when the seccomp
+    filter (``child.install_filter``) was installed and refused what it must (keyrings, memfd,
+    namespaces; with ``rt.deny_internet`` an internet and a Unix socket too), else why not; tmp (``uid`` level) names the shared temporary folders the code
     could still create files in, else None."""
     jobdir = Path(tempfile.mkdtemp(prefix="probe", dir=scratch))
     os.chmod(jobdir, 0o711)
