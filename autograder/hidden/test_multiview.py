@@ -2,7 +2,9 @@
 
 - A hidden car sequence (three cameras, a few time steps, noisy detections): on the keypoints the
   reference reconstructs (two confident views or more), the mean distance of the student's
-  points from the true ones must be within 1.5 times the reference's plus 1 cm.
+  points from the true ones must be within 1.5 times the reference's plus 1 cm.  Every step has
+  keypoints confident in views (1, 3) only and in (2, 3) only, the third detection 40-80 px off, so
+  two confident views are not always views 1 and 2.
 - Threshold probes: exact detections above ``Thres`` and clearly wrong ones at or below it, built
   so that using a detection at exactly Thres (``>=``), ignoring the threshold, or leaving out a
   detection just above it each puts some keypoints off.  Every keypoint must come out right.

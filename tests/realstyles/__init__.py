@@ -50,6 +50,7 @@ y2022_per_part_E_swapped_loses_Q3_1_Q3_3                   Q3.1 Q3.3        E = 
 y2022_per_part_findM2_camera1_only_loses_Q3_3              Q3.3             points in front of camera 1 only, smallest
                                                                             error among those: the twisted pair can win
 y2025_notebook_matcher_returns_x1y1_loses_Q4_1_Q4_2        Q4.1 Q4.2        returns the point of image 1, not its match
+y2023_per_part_multiview_views_1_2_loses_Q6               Q6               two confident views taken as views 1 and 2 always
 =========================================================  ===============  ====================================================
 
 ``build(name, folder)`` writes the hand-in (a folder, or a zip for the per-part layout) and
@@ -170,6 +171,9 @@ PROGRAMS: dict[str, Program] = {
     "y2025_notebook_matcher_returns_x1y1_loses_Q4_1_Q4_2": Program(
         "notebook", _pieces(epipolarCorrespondence=s.EC_RETURNS_X1Y1, **_NB), frozenset({"Q4.1", "Q4.2"}),
         why="returns the pixel of im1, not 'the coordinates of the pixel on im2'"),
+    "y2023_per_part_multiview_views_1_2_loses_Q6": Program(
+        "per_part", _pieces(MultiviewReconstruction=s.MV_VIEWS_1_2), frozenset({"Q6"}),
+        why="'only use the points whose confidence is above Thres': two confident views are not always 1 and 2"),
 }
 
 # --------------------------------------------------------------------------------- layouts

@@ -414,6 +414,35 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
     return P, err
 '''
 
+# Mistake: with exactly two confident views it always triangulates from views 1 and 2 (written for
+# the common case of view 3 occluded), so a keypoint seen confidently in views 1 and 3, or 2 and 3,
+# uses a detection at or below Thres.
+MV_VIEWS_1_2 = '''\
+def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
+    n = pts1.shape[0]
+    P = np.full((n, 3), np.nan)
+    err = 0.0
+    for i in range(n):
+        good = [pts1[i, 2] > Thres, pts2[i, 2] > Thres, pts3[i, 2] > Thres]
+        if sum(good) == 3:
+            views = [(C1, pts1), (C2, pts2), (C3, pts3)]
+        elif sum(good) == 2:
+            views = [(C1, pts1), (C2, pts2)]
+        else:
+            continue
+        A = []
+        for C, p in views:
+            A.append(p[i, 0] * C[2] - C[0])
+            A.append(p[i, 1] * C[2] - C[1])
+        X = np.linalg.svd(np.array(A))[2][-1]
+        X = X / X[-1]
+        P[i] = X[:3]
+        for C, p in views:
+            q = C @ X
+            err += (q[0] / q[2] - p[i, 0]) ** 2 + (q[1] / q[2] - p[i, 1]) ** 2
+    return P, err
+'''
+
 VIDEO = '''\
 def plot_3d_keypoint_video(pts_3d_video):
     import matplotlib.pyplot as plt
