@@ -26,6 +26,14 @@ Every route to refineF is covered for the length of one call of ``fn``:
 It lives in ``core`` because the sandbox child may import only ``core`` of the kit: importing
 ``starter`` there would load scipy into every child.  Imports numpy and core only.  The switch
 is state of this process, so it covers only calls made in it, one at a time.
+
+The switch is the student's own process's state, which the code under test can change.  So in the
+grader's sandbox the switch does not decide: the child names a *grader helper*
+(:func:`set_grader_helper`) through which the kit's refineF asks the grader for its result, and
+the grader answers polished or switched off as its own request said
+(``autograder/sandbox/session.py``); the minimisation itself (``starter.refine_polish``) is not
+shipped to the sandbox.  The replacement of a student's own refineF still happens here, in the
+child: it only concerns their own code.
 """
 
 from __future__ import annotations
@@ -41,7 +49,8 @@ import numpy as np
 from core.geometry import enforce_rank2
 from core.validate import as_matrix
 
-__all__ = ["Switch", "as_F", "is_off", "polish_skipped", "stand_in", "switched_off"]
+__all__ = ["Switch", "as_F", "closest_rank2", "count_call", "grader_helper", "is_off", "polish_skipped", "set_grader_helper", "stand_in",
+           "switched_off"]
 
 _KIT_HELPER = ("starter.epipolar", "refineF")  # where the helper that reads the switch itself lives
 _MISSING = object()
@@ -57,9 +66,29 @@ class Switch:
 _runs: list[Switch] = []  # the runs in progress, innermost last; refineF is off while any is
 
 
+_grader: list[Callable] = []  # the sandbox child's way to ask the grader for refineF (at most one)
+
+
 def is_off() -> bool:
     """True while refineF is switched off (inside :func:`switched_off`)."""
     return bool(_runs)
+
+
+def set_grader_helper(fn: Callable) -> None:
+    """In the sandbox child only, before any student code: the kit's refineF calls
+    ``fn(F, pts1, pts2)`` (checked (3, 3) and (N, 2) float arrays) and returns what it returns."""
+    _grader[:] = [fn]
+
+
+def grader_helper() -> Callable | None:
+    """The function set by :func:`set_grader_helper`, or None outside the grader's sandbox."""
+    return _grader[0] if _grader else None
+
+
+def count_call() -> None:
+    """Count one call of refineF in the innermost switched-off run (if any)."""
+    if _runs:
+        _runs[-1].calls += 1
 
 
 def as_F(F) -> np.ndarray:
@@ -74,8 +103,13 @@ def as_F(F) -> np.ndarray:
 def polish_skipped(F: np.ndarray) -> np.ndarray:
     """What refineF returns switched off, for an F already read by :func:`as_F`: the closest
     rank-2 matrix to F, unit Frobenius norm, (3, 3).  Counts the call."""
-    if _runs:
-        _runs[-1].calls += 1
+    count_call()
+    return closest_rank2(F)
+
+
+def closest_rank2(F: np.ndarray) -> np.ndarray:
+    """The closest rank-2 matrix to a checked (3, 3) F, unit Frobenius norm (what switched-off
+    refineF returns; the grader computes it for the sandbox)."""
     out = enforce_rank2(F)
     return out / np.linalg.norm(out)
 

@@ -23,6 +23,7 @@ __all__ = [
     "DATA_EXCLUDE",
     "GRADER_PACKAGES",
     "SANDBOX_PACKAGES",
+    "SANDBOX_WITHHELD",
 ]
 
 # The student release: packages shipped whole.  ``judging`` is shipped when it exists.
@@ -41,3 +42,7 @@ GRADER_PACKAGES = ("core", "scenes", "starter", "judging", "solutions", "autogra
 
 # The sandbox's own library folder: what the student's code may import of the kit.
 SANDBOX_PACKAGES = ("core", "scenes", "starter", "judging")
+# Files of those packages the sandbox never gets, and hides wherever the grader's Python could find
+# them: the minimisation behind refineF, which the grader computes for the code under test instead
+# (autograder/sandbox/helpers.py), so that nothing in the child can polish a switched-off run.
+SANDBOX_WITHHELD = ("starter/refine_polish.py",)

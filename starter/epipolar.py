@@ -7,7 +7,6 @@ point x1 of image 1 to the line l2 = F x1 in image 2, so that x2^T F x1 = 0 for 
 from __future__ import annotations
 
 import numpy as np
-import scipy.optimize
 
 from core import geometry, refine_switch
 from core.geometry import enforce_rank2
@@ -73,16 +72,14 @@ def refineF(F, pts1, pts2) -> np.ndarray:
     p1 = as_points(pts1, "pts1", min_count=8)
     p2 = as_points(pts2, "pts2", min_count=8)
     same_length(pts1=p1, pts2=p2)
+    grader = refine_switch.grader_helper()
+    if grader is not None:
+        # Inside the grader's sandbox the grader computes it (switched off or not, as it decided):
+        # nothing the code under test changes in this process can bring the minimisation back.
+        refine_switch.count_call()
+        return grader(F, p1, p2)
     if refine_switch.is_off():
         return refine_switch.polish_skipped(F)
+    from starter.refine_polish import polish   # not shipped to the sandbox: see the branch above
 
-    of = geometry.symmetric_epipolar_cost_of(p1, p2)
-
-    def cost(f):
-        return of(enforce_rank2(f.reshape(3, 3)))
-
-    # Powell needs no gradient, and the cost is flat along F's scale: that is harmless to it.
-    res = scipy.optimize.minimize(cost, (F / np.linalg.norm(F)).ravel(), method="Powell",
-                                  options={"maxiter": 100000, "maxfev": 10000, "xtol": 1e-4, "ftol": 1e-4})
-    out = enforce_rank2(res.x.reshape(3, 3))
-    return out / np.linalg.norm(out)
+    return polish(F, p1, p2)

@@ -291,3 +291,73 @@ class _Renamed:
 
     def each(self, function, inputs, **kw):
         return self.student.each(self.name if function == "eightpoint" else function, inputs, **kw)
+
+
+# A student who reads the kit: each way of throwing the switch back on from inside the child,
+# then the kit's refineF on the F given.
+THROWS_THE_SWITCH = '''\
+import importlib
+import sys
+
+import core.refine_switch
+import starter
+import starter.epipolar
+
+
+def polish_anyway(F, pts1, pts2, how):
+    if how == "patched is_off":
+        core.refine_switch.is_off = lambda: False
+    elif how == "emptied the runs":
+        core.refine_switch._runs.clear()
+    elif how == "dropped the grader helper":
+        core.refine_switch._grader.clear()
+    elif how == "reloaded the helper":
+        importlib.reload(starter.epipolar)
+    elif how == "imported the minimisation":
+        from starter.refine_polish import polish
+        return polish(F, pts1, pts2)
+    elif how == "read the kit's file":
+        import os
+        found = []
+        for folder in sys.path + [os.path.dirname(os.path.dirname(starter.__file__)), {kit!r}]:
+            try:
+                found.append(open(os.path.join(folder, "starter", "refine_polish.py")).read())
+            except OSError:
+                pass
+        return found
+    return starter.epipolar.refineF(F, pts1, pts2)
+'''.replace("{kit!r}", repr(str(KIT_ROOT)))
+HOWS = ("as given", "patched is_off", "emptied the runs", "reloaded the helper", "dropped the grader helper",
+        "imported the minimisation", "read the kit's file")
+
+
+def test_code_in_the_sandbox_cannot_polish_a_switched_off_run(two_view):
+    """The grader, not the child, decides whether refineF minimises: switched off, every way the code
+    has of turning the switch back on still gets the closest rank-2 F; switched on, the grader's
+    minimisation is returned exactly.  The minimisation's module is neither importable nor readable."""
+    from autograder.sandbox import ResourceLimits, Sandbox
+    from core.refine_switch import closest_rank2
+    from starter.refine_polish import polish
+
+    rng = np.random.default_rng(7)
+    p1, p2 = two_view["pts1"] / 640.0, two_view["pts2"] / 640.0
+    F = rng.normal(size=(3, 3))            # a poor start: the minimisation moves it far
+    limits = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
+    with Sandbox(KIT_ROOT, limits=limits) as box, box.session(THROWS_THE_SWITCH, budget=300) as session:
+        off = session.map("polish_anyway", [((h,), {}) for h in HOWS], args=(F, p1, p2), seconds=60,
+                          swap={"refineF": "off"})
+        on = session.map("polish_anyway", [(("as given",), {})], args=(F, p1, p2), seconds=60)
+    projected, polished = closest_rank2(F), polish(F, p1, p2)
+    assert np.linalg.norm(projected - polished) > 0.1 and np.linalg.norm(projected + polished) > 0.1
+    for how, outcome in zip(HOWS, off):
+        # Module globals stay changed for the inputs after (the code's own state): each attack adds up.
+        if how == "read the kit's file":   # the kit's own copy (its path guessed) is hidden too
+            assert outcome.status == "ok" and not any("Powell" in text for text in outcome.value), outcome
+            continue
+        if how in ("imported the minimisation", "dropped the grader helper"):
+            # Without the grader, the kit's refineF has nothing to minimise with: it fails, never polishes.
+            assert outcome.status == "exception", (how, outcome)
+            continue
+        assert outcome.status == "ok", (how, outcome.message)
+        assert np.allclose(outcome.value, projected, atol=1e-12), how
+    assert on[0].status == "ok" and np.array_equal(on[0].value, polished)

@@ -68,7 +68,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from core.paths import KIT_ROOT
-from core.shipping import NEVER_TO_STUDENTS, SANDBOX_PACKAGES
+from core.shipping import NEVER_TO_STUDENTS, SANDBOX_PACKAGES, SANDBOX_WITHHELD
 
 from . import leftovers, levels
 from .deny import SANDBOX_GID
@@ -219,6 +219,8 @@ def _build_lib(lib: Path, kit_root: Path, packages: Sequence[str]) -> None:
         if not (src / "__init__.py").is_file() and not any(src.glob("*.py")):
             continue
         shutil.copytree(src, lib / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    for rel in SANDBOX_WITHHELD:
+        (lib / rel).unlink(missing_ok=True)
     # Compiled here once, because the child may not write into this folder.
     compileall.compile_dir(lib, quiet=1, workers=1)
     if importlib.util.find_spec("matplotlib") is not None:
@@ -247,17 +249,25 @@ def _font_cache(folder: Path) -> None:
         (folder / name).write_bytes(data)
 
 
+def _installed(pkg: str) -> list[Path]:
+    """The folders this Python imports the package ``pkg`` from (none when it has none)."""
+    try:
+        spec = importlib.util.find_spec(pkg)
+    except (ImportError, ValueError):
+        spec = None
+    return [Path(loc) for loc in (spec.submodule_search_locations or [])] if spec else []
+
+
 def _hidden_paths(kit_root: Path, extra: Sequence[str | Path]) -> tuple[Path, ...]:
     # What never ships to students (solutions, autograder, tests, the answer-key notebooks...),
     # and the kit's history and build folders, which hold the same files.
-    found = [kit_root / rel for rel in NEVER_TO_STUDENTS + (".git", "build")]
+    found = [kit_root / rel for rel in NEVER_TO_STUDENTS + SANDBOX_WITHHELD + (".git", "build")]
     for pkg in ("solutions", "autograder"):
-        try:
-            spec = importlib.util.find_spec(pkg)
-        except (ImportError, ValueError):
-            spec = None
-        for loc in (spec.submodule_search_locations or []) if spec else []:
-            found.append(Path(loc))
+        found.extend(_installed(pkg))
+    # A withheld file wherever this Python would import its package from (an installed kit too).
+    for rel in SANDBOX_WITHHELD:
+        package, _, name = rel.partition("/")
+        found.extend(loc / name for loc in _installed(package))
     course_data = os.environ.get("HW4_COURSE_DATA") or kit_root.parent / "shared" / "course-data"
     found.append(Path(course_data))
     found.extend(Path(p) for p in extra)

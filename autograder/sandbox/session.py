@@ -34,7 +34,7 @@ from pathlib import Path
 
 from core import wire
 
-from . import script
+from . import helpers, script
 from .model import CLOCKS, MAX_REFINE_CALLS, CallOutcome, Isolation, SessionInfo
 from .script import Runtime
 from .uids import SHARED_TMP_DIRS, files_of_uid, remove_files_of_uid, sweep_uid, usage_of
@@ -320,6 +320,11 @@ class Session:
                     if rec.get("exhausted") is True:
                         request["exhausted"] = True
                 state["current"] = max(state["current"], index + 1)
+            elif event == "helper":
+                # The kit's refineF asks the grader (helpers.py); the answer goes back on the child's stdin.
+                state["helpers"] = state.get("helpers", 0) + 1
+                child.pending += helpers.answer(rec, switched_off=(request.get("swap") or {}).get("refineF") == "off",
+                                                calls=state["helpers"], limits=self.wire_limits)
             elif event == "end":
                 state["ended"] = True
                 state["restart"] = _short(rec.get("restart"), 500) if rec.get("restart") else None
