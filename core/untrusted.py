@@ -9,7 +9,11 @@ Before it is written, it passes the function of its destination:
   link, an image, a heading or a list of the student's.
 - ``for_html``: the class report, the look-alike pages, regrade_diff.html.
 - ``for_csv_cell``: every cell of every CSV (grades, canvas, report, similarity, regrade): a cell
-  a spreadsheet would read as a formula gets OWASP's leading single quote.
+  a spreadsheet would read as a formula gets OWASP's leading single quote.  It is judged as the
+  spreadsheet gets it, once made ``visible``: an escape sequence or spaces in front of ``=`` hide
+  nothing.
+- ``for_json``: every string (keys too) of a staff JSON file (similarity.json), made ``visible``;
+  numbers, booleans and None stay as they are.
 - ``for_terminal``: what the CLI prints.
 
 All of them first make the text ``visible``: terminal escape sequences (CSI, OSC with its
@@ -30,7 +34,7 @@ import io
 import re
 import unicodedata
 
-__all__ = ["csv_text", "for_csv_cell", "for_html", "for_markdown", "for_terminal", "visible"]
+__all__ = ["csv_text", "for_csv_cell", "for_html", "for_json", "for_markdown", "for_terminal", "visible"]
 
 # Long enough for any feedback of the kit (results.clean_feedback bounds a check's at 2000).
 LIMIT = 4000
@@ -118,19 +122,24 @@ def for_html(text, limit: int = LIMIT, *, newlines: bool = True) -> str:
 
 
 # A cell a spreadsheet reads as a formula (OWASP, "CSV injection"); a plain number is data.
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r", "\n")
+_FORMULA_SIGNS = ("=", "+", "-", "@")
 _PLAIN_NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[+-]?\d+)?", re.I)
 
 
 def for_csv_cell(value, limit: int = LIMIT):
     """A CSV cell: numbers as they are; text ``visible`` on one line, with a leading single quote
-    when it starts with ``= + - @``, a tab or a CR (unless it is a plain number such as "-2")."""
+    when it starts with a tab, or with ``= + - @`` after any leading spaces (unless it is a plain
+    number such as "-2").
+
+    The cell is judged once it is ``visible``, as a spreadsheet gets it: an escape sequence, a CR
+    or a newline in front of ``=`` is removed or made a space there, so it must not hide the
+    ``=``; and an import that trims spaces may start the cell at the ``=``.
+    """
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return value
-    raw = "" if value is None else str(value)
-    if raw.startswith(_FORMULA_START) and not _PLAIN_NUMBER.fullmatch(raw):
-        raw = "'" + raw  # before ``visible``: a leading tab or CR would be made visible, not harmless
-    return visible(raw, limit, newlines=False)
+    cell = visible("" if value is None else value, limit, newlines=False)
+    formula = cell.startswith("\t") or cell.lstrip().startswith(_FORMULA_SIGNS)
+    return "'" + cell if formula and not _PLAIN_NUMBER.fullmatch(cell.strip()) else cell
 
 
 def csv_text(rows) -> str:
@@ -140,6 +149,21 @@ def csv_text(rows) -> str:
     for row in rows:
         writer.writerow([for_csv_cell(c) for c in row])
     return buf.getvalue()
+
+
+def for_json(value):
+    """``value`` (JSON data: dicts, lists, tuples, str, numbers, bool, None) with every string, keys
+    included, made ``visible``: a reader of the file (``jq``, an editor, a script printing it)
+    meets no escape sequence, control, bidi or zero-width character of a student's."""
+    if isinstance(value, str):
+        return visible(value)
+    if isinstance(value, dict):
+        return {for_json(k) if isinstance(k, str) else k: for_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [for_json(v) for v in value]
+    if value is None or isinstance(value, (bool, int, float)):
+        return value
+    raise ValueError(f"value: expected JSON data (dict, list, str, number, bool or None), got {type(value).__name__}")
 
 
 def for_terminal(text, limit: int = LIMIT) -> str:

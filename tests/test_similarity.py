@@ -6,6 +6,7 @@ import ast
 import csv
 import itertools
 import json
+import unicodedata
 import zipfile
 from pathlib import Path
 
@@ -245,3 +246,28 @@ def test_command_reports_a_group_once_with_its_members(tmp_path, capsys):
     assert {p["a"] for p in pairs} | {p["b"] for p in pairs} == {"c0", "c1", "c2", "c3"}
     rows = [r for r in csv.DictReader((tmp_path / "out" / "similarity.csv").open()) if r["function"] == "eightpoint"]
     assert [r["rank"] for r in rows] == [str(p["rank"]) for p in pairs] and {r["group"] for r in rows} == {"1"}
+
+
+def test_similarity_json_shows_the_hidden_characters_of_names_and_notes(tmp_path):
+    """A folder and a file named with a bidi override, a zero-width space and an escape sequence:
+    every string of similarity.json is as ``core.untrusted.visible`` shows it."""
+    from core.untrusted import visible
+
+    name = "al\u202eice\u200b\x1b[2J"
+    folder = tmp_path / name
+    folder.mkdir()
+    (folder / "q2_\u2066answers.py").write_text((CORPUS / "alice.py").read_text())
+    (folder / "q3_\u200bbroken.py").write_text("def triangulate(:\n")
+    out = tmp_path / "out"
+    assert main(["similar", str(folder), str(CORPUS / "bo.py"), "--out", str(out)]) == 0
+    data = json.loads((out / "similarity.json").read_text())
+
+    def strings(value):
+        if isinstance(value, dict):
+            return [s for k, v in value.items() for s in [k, *strings(v)]]
+        return [s for v in value for s in strings(v)] if isinstance(value, list) else [value]
+
+    texts = [s for s in strings(data) if isinstance(s, str)]
+    assert not [s for s in texts if "\x1b" in s or any(unicodedata.category(c) in ("Cc", "Cf") for c in s)]
+    assert visible(name) in data["submissions"] and visible(name) in data["notes"]
+    assert any("q3_\\u200bbroken.py" in note for note in data["notes"][visible(name)])

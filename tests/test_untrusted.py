@@ -31,7 +31,7 @@ from autograder.regrade import Change, write_diff
 from autograder.results import QuestionResult, SubmissionResult, TestResult
 from autograder.review.report import build_report, write_report
 from autograder.submission import load_submission
-from core.untrusted import csv_text, for_csv_cell, for_html, for_markdown, for_terminal, visible
+from core.untrusted import csv_text, for_csv_cell, for_html, for_json, for_markdown, for_terminal, visible
 
 HOSTILE = list(HOSTILE_TEXTS.values()) + [UNDECODABLE_NAME.decode("utf-8", "surrogateescape")]
 IDS = list(HOSTILE_TEXTS) + ["undecodable"]
@@ -199,3 +199,29 @@ def test_a_feedback_line_of_student_text_carries_no_escape_sequence_or_control()
         for line in (tidy(text), exception_sentence(f"ValueError: {text}")):
             assert "\x1b" not in line and "\x9b" not in line, line
             assert not any(unicodedata.category(c) in ("Cc", "Cf") for c in line), line
+
+
+# Formulas that only a spreadsheet sees: what hides the sign is an escape sequence ``visible``
+# removes, or spaces an import may trim.
+HIDDEN_FORMULAS = {
+    "csi_before_equals": "\x1b[m=1+1+cmd|' -C calc'!A0.py",
+    "osc_title_before_minus": "\x1b]0;t\x07-1+1",
+    "colour_before_tab": "\x1b[31m\t=1+1",
+    "c1_csi_before_at": "\x9b0m@SUM(1+1)",
+    "spaces_before_plus": "   +1+1",
+}
+
+
+@pytest.mark.parametrize("text", HIDDEN_FORMULAS.values(), ids=HIDDEN_FORMULAS)
+def test_a_csv_cell_is_judged_as_the_spreadsheet_reads_it(text):
+    cell = for_csv_cell(text)
+    assert cell == "'" + visible(text, newlines=False)
+    [[row]] = list(csv.reader(io.StringIO(csv_text([[text]]))))
+    assert row == cell
+
+
+def test_json_data_has_every_string_visible():
+    data = {"a\u202eb": ["\x1b]0;pwned\x07name\u200b", 3, -2.5, None, True, ("t\x00",)], "n": {"k": "v"}}
+    assert for_json(data) == {"a\\u202eb": ["name\\u200b", 3, -2.5, None, True, ["t\\x00"]], "n": {"k": "v"}}
+    with pytest.raises(ValueError, match="value"):
+        for_json({"x": object()})

@@ -4,7 +4,8 @@ similar SUBMISSIONS... --out DIR [--top N] [--keep-starter]
     Look-alike code per homework function.  SUBMISSIONS are submission folders or zips, or class
     folders holding them.  Writes DIR/similarity.csv, DIR/similarity.json, DIR/similarity.html
     (DIR 0700, its files 0600: they hold every student's code); the flagged pairs are also joined
-    into groups (N copies of one solution: one group of N).
+    into groups (N copies of one solution: one group of N).  Names and notes pass
+    ``core.untrusted`` for each file (``for_csv_cell``, ``for_json``, ``for_html``).
 report GRADED_DIR --out DIR [--assignment NAME] [--roster CANVAS_EXPORT.csv] [--per-question] [--config FILE]
     The class report of a graded folder (see autograder.review.report); the library calls it lists
     are the grader config's ``library_calls`` (default: autograder.review.library_calls).
@@ -19,7 +20,7 @@ import time
 from pathlib import Path
 
 from core.text import private_folder, write_atomic
-from core.untrusted import csv_text, for_terminal
+from core.untrusted import csv_text, for_json, for_terminal
 
 _PRIVATE = 0o600
 
@@ -72,13 +73,15 @@ def run_similar(paths, out: str | Path, *, top: int = 20, keep_starter: bool = F
             rows.append([f, d["rank"], d["a"], d["b"], d["score"], d["jaccard"], d["containment"], d["shared"],
                          "look at these" if p.flagged else "", group_of.get(p.a, "") if p.flagged else ""])
     write_atomic(out / "similarity.csv", csv_text(rows), mode=_PRIVATE)
-    write_atomic(out / "similarity.json", json.dumps({
+    # Submission names and notes are the students' (folder and file names): every string is made
+    # visible, as in the CSV and the page.
+    write_atomic(out / "similarity.json", json.dumps(for_json({
         "submissions": names,
         "groups": [g.as_dict() for g in found],
         "functions": {f: {"compared": comps[f].names, "without_own_code": comps[f].skipped,
                           "pairs": [p.as_dict() for p in pairs]} for f, pairs in ranked.items()},
         "notes": {s.name: list(s.notes) for s in subs if s.notes},
-    }, indent=1), mode=_PRIVATE)
+    }), indent=1), mode=_PRIVATE)
     sources = {(s.name, f): fs for s in subs for f, fs in s.functions.items()}
     write_atomic(out / "similarity.html", similarity_page(comps, sources, top=min(top, 10), groups=found),
                  mode=_PRIVATE)
