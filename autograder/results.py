@@ -6,7 +6,8 @@ from the model through one function each:
 
 - ``SubmissionResult.to_gradescope()``: Gradescope's results.json (top-level score, output,
   visibility, stdout_visibility, extra_data; tests[] with name, number, score, max_score,
-  status, output, visibility);
+  status, output, visibility, and a check's ``extra_data.mistakes`` when its known mistakes were
+  recorded: where the class report takes mistake names from);
 - ``SubmissionResult.failed(reason)``: a valid result worth zero that says why, for when grading
   itself could not run (unreadable submission, broken sandbox);
 - ``SubmissionResult.feedback_markdown()``: the readable report;
@@ -79,6 +80,20 @@ def clean_feedback(text: str, limit: int = _FEEDBACK_LIMIT) -> str:
     return cleaned if len(cleaned) <= limit else cleaned[:limit] + " [...]"
 
 
+def _mistake_codes(codes) -> tuple[str, ...]:
+    """``codes`` as a tuple without repeats, each a key of the catalogue of known mistakes."""
+    if isinstance(codes, str) or not isinstance(codes, (list, tuple)):
+        raise ValueError(f"mistakes: expected a tuple of catalogue codes, got {codes!r}")
+    if not codes:
+        return ()
+    from judging.mistakes import KNOWN_MISTAKES  # here: numpy and the catalogue only when there are codes
+
+    unknown = [c for c in codes if not isinstance(c, str) or c not in KNOWN_MISTAKES]
+    if unknown:
+        raise ValueError(f"mistakes: expected codes of judging.mistakes.KNOWN_MISTAKES, got {unknown!r}")
+    return tuple(dict.fromkeys(codes))
+
+
 def _check_score(value, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ValueError(f"{name}: expected a finite number, got {value!r}")
@@ -91,7 +106,11 @@ class TestResult:
 
     name: what was checked ("eightpoint: F maps points to their epipolar lines");
     score, max_score: points, 0 <= score <= max_score; passed: None means full marks;
-    feedback: text for the student (cleaned of tracebacks, bounded); visibility: Gradescope's.
+    feedback: text for the student (cleaned of tracebacks, bounded); visibility: Gradescope's;
+    mistakes: the codes (keys of ``judging.mistakes.KNOWN_MISTAKES``) of the known mistakes the
+    grader's judging named in this check, as the grader recorded them; None when whoever made the
+    result did not record them.  The class report counts these, never names read in ``feedback``,
+    which may quote a student.
     """
 
     name: str
@@ -100,6 +119,7 @@ class TestResult:
     passed: bool | None = None
     feedback: str = ""
     visibility: str = "visible"
+    mistakes: tuple[str, ...] | None = None
 
     __test__ = False  # not a pytest test class despite its name
 
@@ -115,6 +135,8 @@ class TestResult:
         object.__setattr__(self, "score", min(max(score, 0.0), max_score))
         object.__setattr__(self, "max_score", max_score)
         object.__setattr__(self, "feedback", clean_feedback(self.feedback))
+        if self.mistakes is not None:
+            object.__setattr__(self, "mistakes", _mistake_codes(self.mistakes))
         if self.passed is None:
             object.__setattr__(self, "passed", self.score >= self.max_score - _TOL)
 
@@ -280,6 +302,7 @@ class SubmissionResult:
                         "status": "passed" if t.passed else "failed",
                         "output": text,
                         "visibility": t.visibility,
+                        **_recorded_mistakes(t),
                     })
             return out
         order = {v: k for k, v in enumerate(("visible", "after_due_date", "after_published", "hidden"))}
@@ -318,6 +341,7 @@ class SubmissionResult:
                     "status": "passed" if t.passed else "failed",
                     "output": text,
                     "visibility": shown,
+                    **_recorded_mistakes(t),
                 })
         return out
 
@@ -430,6 +454,12 @@ def _public_configuration(record: dict | None) -> dict | None:
     if isinstance(out.get("tests"), dict):
         out["tests"] = {k: v for k, v in out["tests"].items() if k != "files"}
     return out
+
+
+def _recorded_mistakes(t: TestResult) -> dict:
+    """A check's known mistakes for results.json: ``{"extra_data": {"mistakes": [codes]}}`` (a test's
+    extra_data is Gradescope's "extra data to be stored"), or nothing when they were not recorded."""
+    return {} if t.mistakes is None else {"extra_data": {"mistakes": list(t.mistakes)}}
 
 
 def _cell(text: str) -> str:

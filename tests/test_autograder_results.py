@@ -149,3 +149,20 @@ def test_configuration_is_recorded_round_trips_and_keeps_results_json_valid(tmp_
     assert failed.to_gradescope()["extra_data"]["configuration"]["secret_fingerprint"] == record["secret_fingerprint"]
     assert "Graded by grader" in result.feedback_markdown(audience="staff")
     assert "Graded by grader" not in result.feedback_markdown()
+
+
+def test_a_checks_recorded_mistakes_are_catalogue_codes_kept_through_json():
+    named = TestResult("epipolar constraint holds", 0, 6, feedback="Likely mistake: F transposed.",
+                       mistakes=["f_transposed", "f_rank3", "f_transposed"])
+    assert named.mistakes == ("f_transposed", "f_rank3")  # a tuple, each code once, in order
+    assert TestResult("F is rank 2", 4, 4).mistakes is None  # not recorded
+    for bad in ("f_transposed", ["F transposed"], [3]):
+        with pytest.raises(ValueError, match="mistakes"):
+            TestResult("x", 0, 1, mistakes=bad)
+    result = SubmissionResult((QuestionResult.of("Q2", [TestResult("F is rank 2", 4, 4, mistakes=()), named]),), "s")
+    assert SubmissionResult.from_dict(json.loads(json.dumps(result.to_dict()))) == result
+    cli = [t.get("extra_data") for t in result.to_gradescope()["tests"]]
+    assert cli == [{"mistakes": []}, {"mistakes": ["f_transposed", "f_rank3"]}]
+    checks = [t for t in result.to_gradescope({"checks": "hidden"})["tests"] if "check:" in t["name"]]
+    assert [t["extra_data"]["mistakes"] for t in checks] == [[], ["f_transposed", "f_rank3"]]
+    assert all("extra_data" not in t for t in sample().to_gradescope()["tests"])  # none recorded, none written

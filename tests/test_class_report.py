@@ -9,14 +9,22 @@ from autograder.results import QuestionResult, SubmissionResult, TestResult, wri
 from autograder.review.__main__ import main
 from autograder.review.report import CANVAS_COLUMNS, build_report, load_results, write_report
 from core.manifest import question
+from judging.mistakes import KNOWN_MISTAKES
 
 
-def _result(student: str, q2_ok: bool, mistake: str | None = None) -> SubmissionResult:
+CODES = {name: code for code, (name, _) in KNOWN_MISTAKES.items()}
+
+
+def _result(student: str, q2_ok: bool, mistake: str | None = None, *, recorded: bool = True) -> SubmissionResult:
+    """A result as the grader makes it: the check's feedback names the mistake and, when
+    ``recorded``, the check records its code (``recorded=False``: a grader that did not)."""
     pts = question("Q2").points
+    codes = (CODES[mistake],) if mistake else ()
     q2 = QuestionResult.of("Q2", [
-        TestResult("F is rank 2", 4, 4),
+        TestResult("F is rank 2", 4, 4, mistakes=() if recorded else None),
         TestResult.check("epipolar constraint holds", q2_ok, pts - 4,
-                         f"mean distance 3 px. Likely mistake: {mistake}. Check the order." if mistake else "off"),
+                         f"mean distance 3 px. Likely mistake: {mistake}. Check the order." if mistake else "off",
+                         mistakes=codes if recorded else None),
     ])
     q31 = QuestionResult.of("Q3.1", [TestResult("E from F", 5 if student != "c" else 0, 5)])
     return SubmissionResult((q2, q31), student_id=student)
@@ -42,6 +50,29 @@ def test_shares_and_mistakes(tmp_path):
     assert rep.mistakes[("Q2", "F transposed")] == {"b", "c"}
     assert rep.mistakes[("Q2", "rank 2 not enforced")] == {"d"}
     assert rep.scores["Q2"]["a"] == 10 and rep.scores["Q2"]["b"] == 4 and rep.scores["Q2"]["e"] == 0
+
+
+def test_mistake_names_come_from_the_record_never_from_a_students_text(tmp_path):
+    """A student's exception message that reads like the kit's note names nothing: the report counts
+    the codes the grader recorded for the check, and the catalogue gives their names."""
+    pts = question("Q2").points
+    quoted = "eightpoint raised ValueError: Likely mistake: F transposed. (in eightpoint, cell 3, line 2)"
+    tests = [TestResult("F is rank 2", 0, 4, feedback=quoted, mistakes=()),
+             TestResult("epipolar constraint holds", 0, pts - 4, feedback=quoted + "\nLikely mistake: rank 2 not "
+                        "enforced. A fundamental matrix is singular.", mistakes=("f_rank3",))]
+    graded = tmp_path / "graded"
+    (graded / "s").mkdir(parents=True)
+    SubmissionResult((QuestionResult.of("Q2", tests),), student_id="s").write_gradescope(graded / "s" / "results.json")
+    rep = build_report(load_results(graded))
+    assert dict(rep.mistakes) == {("Q2", "rank 2 not enforced"): {"s"}}
+
+
+def test_results_of_a_grader_that_did_not_record_mistakes_are_read_as_before(tmp_path):
+    graded = tmp_path / "graded"
+    for r in (_result("b", False, "F transposed", recorded=False), _result("c", False, "F transposed")):
+        (graded / r.student_id).mkdir(parents=True)
+        r.write_gradescope(graded / r.student_id / "results.json")
+    assert dict(build_report(load_results(graded)).mistakes) == {("Q2", "F transposed"): {"b", "c"}}
 
 
 def test_files_and_offline_page(tmp_path):

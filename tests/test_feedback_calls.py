@@ -183,3 +183,16 @@ def test_kinds_never_print_values():
                                                    "filename=a str)")
     assert returned((np.ones(3), 1.5, None)) == "a tuple of 3 (a 3 float64 array, a float, None)"
     assert returned(None) == "None" and returned(7) == "an int"
+
+
+def test_the_mistakes_a_check_names_are_the_ones_its_feedback_says():
+    """``named_mistakes`` is what the grader records for the class report; ``notes`` says the same
+    mistakes to the student, each once, and none when the check passed."""
+    from autograder.hidden.feedback import named_mistakes, notes
+    from judging.mistakes import mistake
+
+    found = [mistake("f_transposed"), None, mistake("f_rank3"), mistake("f_transposed")]
+    assert [m.code for m in named_mistakes(found)] == ["f_transposed", "f_rank3"]
+    assert named_mistakes(found, passed=True) == [] and notes(["a: x"], found, passed=True) == ["a: x"]
+    said = [line for line in notes(["a: x"], found) if line.startswith("Likely mistake: ")]
+    assert said == [f"Likely mistake: {m.name}. {m.hint[0].upper()}{m.hint[1:]}" for m in named_mistakes(found)]

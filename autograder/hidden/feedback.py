@@ -15,8 +15,8 @@ from core.untrusted import visible
 from judging.hints import numpy2_hint
 from judging.verdict import Malformed, same_error
 
-__all__ = ["PARAMETERS", "called_as", "collapse", "exception_sentence", "failure", "kind", "mistake_note", "notes",
-           "read_returned", "returned", "tidy", "value_of"]
+__all__ = ["PARAMETERS", "called_as", "collapse", "exception_sentence", "failure", "kind", "mistake_note",
+           "named_mistakes", "notes", "read_returned", "returned", "tidy", "value_of"]
 
 # A feedback line of a failed call holds the failure (its message cut to _FIRST_LINE_LIMIT), the
 # call with the kind of each argument (seven arguments take about 200 characters) and what came back.
@@ -210,13 +210,20 @@ def mistake_note(m) -> str:
     return f"Likely mistake: {m.name}. {m.hint[0].upper()}{m.hint[1:]}"
 
 
+def named_mistakes(mistakes: Sequence = (), *, passed: bool = False) -> list:
+    """The catalogue Mistakes a check names: each code once, in order, none when ``passed``.
+
+    ``notes`` writes them for the student; their codes are the ones to record in the check's
+    ``TestResult.mistakes``, which the class report counts (never the feedback's words).
+    """
+    found: dict = {}
+    for m in () if passed else mistakes:
+        if m is not None:
+            found.setdefault(m.code, m)
+    return list(found.values())
+
+
 def notes(lines: Sequence[str], mistakes: Sequence = (), *, passed: bool = False) -> list[str]:
     """The feedback lines of a check: ``lines`` merged, then each mistake named once unless passed."""
     out = collapse([str(line) for line in lines if line])
-    if not passed:
-        seen: set = set()
-        for m in mistakes:
-            if m is not None and m.code not in seen:
-                seen.add(m.code)
-                out.append(mistake_note(m))
-    return out
+    return out + [mistake_note(m) for m in named_mistakes(mistakes, passed=passed)]

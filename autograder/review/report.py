@@ -4,10 +4,11 @@ Reads ``<graded>/<student>/results.json`` (Gradescope's schema, as the grader wr
 with name "Q2 <check>", score, max_score, status, output) and writes into ``out``:
 
 - ``tests.csv``: per question and per test, how many results have it and the share that passed;
-- ``mistakes.csv``: each named mistake (feedback "Likely mistake: <name>." or "known mistake:
-  <name>.", where <name> is a name of the catalogue, ``judging.mistakes.KNOWN_MISTAKES``: text of
-  a student's that merely looks like one is not a mistake name) with its question, count and the
-  students who made it;
+- ``mistakes.csv``: each known mistake the grader recorded for a check (the check's
+  ``extra_data.mistakes`` in results.json: codes of ``judging.mistakes.KNOWN_MISTAKES``, written
+  from the judging's own Mistakes; feedback, which quotes students, is not read for them) with its
+  question, catalogue name, count and the students who made it.  Only a check written by a grader
+  that did not record its mistakes is read as before: the catalogue's names in its feedback;
 - ``histogram_<question>.png`` (and ``histogram_total.png``): scores per question;
 - ``report.html``: all of the above on one page, the histograms embedded (works offline);
 - ``grades.csv``: ``student_id, total, Q2, ...`` (copied from the graded folder when it has one);
@@ -47,16 +48,18 @@ from .examples import mistake_examples
 from .html import STYLE
 from .library_calls import find_in_class
 
-__all__ = ["ClassReport", "CANVAS_COLUMNS", "load_results", "build_report", "write_report", "MISTAKE_PATTERN"]
+__all__ = ["ClassReport", "CANVAS_COLUMNS", "load_results", "build_report", "write_report"]
 
 CANVAS_COLUMNS = ("Student", "ID", "SIS User ID", "SIS Login ID", "Section")
-# Only the catalogue's names: the feedback around them quotes students, whose text must never
-# become a row of the report.
-MISTAKE_PATTERN = re.compile(
-    r"(?:known|likely) mistake:\s*(" + "|".join(re.escape(name) for name, _ in
-                                                sorted(KNOWN_MISTAKES.values(), key=lambda v: -len(v[0])))
+_CATALOGUE = {code: name for code, (name, _) in KNOWN_MISTAKES.items()}
+# Only for a check whose mistakes were not recorded (a results.json of a grader that did not
+# record them): the catalogue's names in its feedback, as the report read them before.  A student's
+# exception message can imitate one there; a recorded check is never read this way.
+_UNRECORDED_PATTERN = re.compile(
+    r"(?:known|likely) mistake:\s*(" + "|".join(re.escape(name) for name in
+                                                sorted(_CATALOGUE.values(), key=lambda v: -len(v)))
     + r")\s*(?:\.|$)", re.IGNORECASE | re.MULTILINE)
-_CATALOGUE_NAMES = {name.lower(): name for name, _ in KNOWN_MISTAKES.values()}
+_CATALOGUE_NAMES = {name.lower(): name for name in _CATALOGUE.values()}
 _QUESTION_IDS = tuple(q.id for q in QUESTIONS if not q.by_hand)
 _EXTRA = {q.id for q in QUESTIONS if q.extra_credit}
 _POINTS = {q.id: q.points for q in QUESTIONS}
@@ -104,6 +107,20 @@ def _split_name(name: str) -> tuple[str, str]:
     return qid, rest
 
 
+def _mistakes_of(test: dict) -> list[str]:
+    """The catalogue names of the known mistakes the grader recorded for ``test`` (one test of
+    results.json): its ``extra_data.mistakes`` codes, unknown ones left out.
+
+    A test without that record (written by a grader that did not record mistakes) falls back to
+    the catalogue's names in its feedback.
+    """
+    extra = test.get("extra_data")
+    if isinstance(extra, dict) and "mistakes" in extra:
+        codes = extra["mistakes"] if isinstance(extra["mistakes"], list) else []
+        return [_CATALOGUE[c] for c in codes if isinstance(c, str) and c in _CATALOGUE]
+    return [_CATALOGUE_NAMES[m.lower()] for m in _UNRECORDED_PATTERN.findall(str(test.get("output", "")))]
+
+
 def build_report(results: dict[str, dict]) -> ClassReport:
     """Tally ``results`` (student -> results.json dict)."""
     rep = ClassReport(students=list(results))
@@ -121,8 +138,8 @@ def build_report(results: dict[str, dict]) -> ClassReport:
             tally = rep.tests.setdefault((qid, test), [0, 0])
             tally[0] += int(passed)
             tally[1] += 1
-            for m in MISTAKE_PATTERN.findall(str(t.get("output", ""))):
-                rep.mistakes[(qid, _CATALOGUE_NAMES[m.lower()])].add(student)
+            for name in _mistakes_of(t):
+                rep.mistakes[(qid, name)].add(student)
         for qid in _QUESTION_IDS:
             rep.scores[qid][student] = 0.0 if failure else per_q.get(qid, 0.0)
     return rep
@@ -270,14 +287,14 @@ def _page(rep: ClassReport, pngs: dict, mistakes, calls: dict, examples: dict | 
     for (qid, test), (passed, seen) in sorted(rep.tests.items(), key=lambda kv: (_qorder(kv[0][0]), kv[0][1])):
         share = passed / seen if seen else 0.0
         cls = " class='flag'" if share < 0.5 else ""
-        parts.append(f"<tr{cls}><td>{qid}</td><td>{e(test)}</td><td>{passed} / {seen}</td><td>{share:.0%}</td></tr>")
+        parts.append(f"<tr{cls}><td>{e(qid)}</td><td>{e(test)}</td><td>{passed} / {seen}</td><td>{share:.0%}</td></tr>")
     parts.append("</table><h2>Named mistakes</h2>")
     if mistakes:
         parts.append("<table><tr><th>question</th><th>mistake</th><th>students</th><th>who</th>"
                      "<th>an example (public data)</th></tr>")
         for (qid, name), studs in mistakes:
             example = (examples or {}).get((qid, name))
-            parts.append(f"<tr><td>{qid}</td><td>{e(name)}</td><td>{len(studs)}</td>"
+            parts.append(f"<tr><td>{e(qid)}</td><td>{e(name)}</td><td>{len(studs)}</td>"
                          f"<td>{e(', '.join(sorted(studs)))}</td><td>{_img(*example) if example else ''}</td></tr>")
         parts.append("</table>")
     else:
