@@ -425,6 +425,27 @@ def test_keyrings_memfd_and_namespaces_are_refused_at_every_level(box):
     assert value["thread"] and value["subprocess"] and value["pool"], value
 
 
+def test_no_staff_path_in_the_namespaces_command_line_or_mount_table(tmp_path):
+    """The namespace's first process runs its staging script from a file, so /proc/1/cmdline names
+    no hidden path; a hidden folder under the private /tmp gets no mount of its own, so the mount
+    table does not name it either."""
+    staff = tmp_path / "grades-of-section-B"
+    staff.mkdir()
+    src = ("def look():\n    out = {}\n    for name in ('/proc/1/cmdline', '/proc/self/mountinfo'):\n"
+           "        try:\n            out[name] = open(name, 'rb').read().decode(errors='replace')\n"
+           "        except OSError as exc:\n            out[name] = repr(exc)\n    return out\n")
+    with Sandbox(KIT_ROOT, hidden=[staff], limits=LIMITS) as sandbox:
+        if not sandbox.isolation.level.endswith("namespaces"):
+            pytest.skip(f"no namespaces at isolation level {sandbox.isolation.level}")
+        seen = run(sandbox, src, Call("l", "look"))["l"]
+        hidden = [str(p) for p in sandbox.runtime.hidden]
+    assert seen.status == "ok", seen.message
+    cmdline, mounts = seen.value["/proc/1/cmdline"], seen.value["/proc/self/mountinfo"]
+    assert "sh" in cmdline and "mount" not in cmdline
+    assert [h for h in hidden if h in cmdline] == []
+    assert str(staff) in hidden and str(staff) not in mounts and "grades-of-section-B" not in mounts
+
+
 def test_environment_is_minimal_and_the_workdir_is_fresh(box, monkeypatch):
     monkeypatch.setenv("HW4_GRADER_SECRET", "token")
     src = ("import os\ndef env():\n    before = sorted(os.listdir('.'))\n"

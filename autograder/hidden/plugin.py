@@ -108,6 +108,10 @@ class Student(_Calls):
         """The ``CallOutcome`` of ``function(*args, **kwargs)`` (never raises for the student's behaviour)."""
         return self.session.call(function, *args, seconds=seconds * self.time_scale, **kwargs)
 
+    def fresh_child(self) -> None:
+        """Later calls run in a new child that never saw what the earlier ones were given."""
+        self.session.restart()
+
     def call(self, function: str, *args, seconds: float, **kwargs):
         """The value ``function(*args, **kwargs)`` returned; StudentError (a failed check) otherwise."""
         o = self.outcome(function, *args, seconds=seconds, **kwargs)
@@ -129,6 +133,9 @@ class LocalStudent(_Calls):
         self.functions = dict(functions)
         self.defined = tuple(sorted(self.functions))
         self.loaded_once, self.load_failure = True, None
+
+    def fresh_child(self) -> None:
+        """No child here: the functions are this process's own."""
 
     def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False, swap=None):
         fn = self.functions.get(function)
@@ -335,10 +342,30 @@ def _draw(batch, salt: str, keep=None):
     return dataclasses.replace(kept, prepared=copy.deepcopy(kept.prepared))  # a check may change its copy only
 
 
+# The order in which the questions' checks run in the one child of a submission.  A check hands the
+# student's code hidden truth (Q3.1 and Q4 get the true F, Q3.2 the true cameras, Q5 a start near
+# the true camera): code that keeps what it is given could return it later as another question's
+# answer (an eightpoint that returns the F its matcher was given).  So every question is checked
+# before any question whose inputs hold its answer: Q2 (F) first, Q3.3 (M2) before Q3.2 (C2 = K2 M2).
+# Instructors' extra checks, whose inputs the kit cannot know, come after the kit's own.
+CHECK_ORDER = ("Q2", "Q3.1", "Q3.3", "Q3.2", "Q4.1", "Q4.2", "Q5", "Q6")
+
+
+def check_rank(item) -> tuple[int, int]:
+    """Where ``item`` runs: (after every check if it is the picture step, its question's rank in
+    ``CHECK_ORDER``, past the end for a check of no known question)."""
+    marker = item.get_closest_marker("points")
+    qid = marker.kwargs.get("question") if marker is not None else None
+    rank = CHECK_ORDER.index(qid) if qid in CHECK_ORDER else len(CHECK_ORDER)
+    return (item.get_closest_marker("picture") is not None, rank)
+
+
 def pytest_collection_modifyitems(session, config, items):
-    """A submission that cannot be read is graded no further: no check runs, the result says why.
-    The unscored picture step (marker ``picture``) runs after every check: it cannot delay one."""
-    items.sort(key=lambda item: item.get_closest_marker("picture") is not None)
+    """Checks run question by question in ``CHECK_ORDER`` (a stable sort: a question's checks keep
+    their order); the unscored picture step (marker ``picture``) runs after every check: it cannot
+    delay one.  A submission that cannot be read is graded no further: no check runs, the result
+    says why."""
+    items.sort(key=check_rank)
     path = config.getoption("--submission")
     if not path or _local(config) is not None:
         return

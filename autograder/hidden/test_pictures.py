@@ -8,6 +8,9 @@ checks, within ``autograder.pictures.SECONDS`` per question; what they return is
 (``autograder.pictures.drawn``: this process never runs student code).  Whatever they do, the
 test passes and records either the picture or the sentence "figure not drawn: ...".  It has no ``points`` marker:
 it never counts in the result.
+
+The step runs in a fresh child of the session (``public_student``): the child of the checks was
+given hidden scenes, and code that kept one could otherwise show it on the student's own page.
 """
 
 import pytest
@@ -22,13 +25,21 @@ def _questions() -> tuple[str, ...]:
         return ()
 
 
+@pytest.fixture(scope="module")
+def public_student(request):
+    """The submission's student on a child that has seen the public data only (made once)."""
+    student = request.getfixturevalue("student")
+    student.fresh_child()
+    return student
+
+
 @pytest.mark.picture
 @pytest.mark.parametrize("question", _questions())
 def test_picture(question, request):
     config = request.config
     if not config.getoption("--pictures"):
         pytest.skip("pictures were not asked for (--pictures)")
-    student = request.getfixturevalue("student")
+    student = request.getfixturevalue("public_student")
     record = run_public(student, question)
     if record:  # {}: no picture of this question in the pictures module
         # Drawn here, in this worker (the grader's own process; student code ran in the sandbox).

@@ -225,7 +225,7 @@ def _probe(rt: Runtime, scratch: Path) -> tuple[str | None, str | None, str | No
         program = [sys.executable, "-I", "-B", "-c", _READ_PROBE, "deny" if rt.deny_internet else "-",
                    str(rt.lib_inside()), *[str(p) for p in rt.hidden]]
         try:
-            proc = subprocess.run(script.command(rt, workdir, program), capture_output=True, timeout=60,
+            proc = subprocess.run(script.command(rt, workdir, program, jobdir), capture_output=True, timeout=60,
                                   stdin=subprocess.DEVNULL, check=False, **script.popen_options(rt, workdir, 60))
         except (OSError, subprocess.SubprocessError) as exc:
             return f"{type(exc).__name__}: {exc}", None, None

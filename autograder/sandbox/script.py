@@ -225,14 +225,23 @@ def _preexec(rt: Runtime, cpu_seconds: int):
     return setup
 
 
-def command(rt: Runtime, workdir: Path, program: list[str]) -> list[str]:
-    """argv that runs ``program`` at the runtime's isolation level."""
+def command(rt: Runtime, workdir: Path, program: list[str], jobdir: Path) -> list[str]:
+    """argv that runs ``program`` at the runtime's isolation level.
+
+    At the namespace levels the staging script is written to ``jobdir/stage`` (the grader's, 0600)
+    and the namespace's first process runs that file: its command line, which every process of the
+    namespace can read in /proc/1/cmdline, then names no hidden path, output folder or keep.
+    """
     if not rt.namespaced:
         return program
     flags = ["--pid", "--fork", "--kill-child", "--mount-proc", "--net", "--mount", "--ipc", "--uts"]
     if rt.level == "user-namespaces":
         flags = ["--user", "--map-root-user"] + flags
-    return [shutil.which("unshare") or "unshare", *flags, "--", "/bin/sh", "-c", stage_script(rt, workdir, program)]
+    stage = jobdir / "stage"
+    fd = os.open(stage, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
+    with os.fdopen(fd, "w") as fh:
+        fh.write(stage_script(rt, workdir, program) + "\n")
+    return [shutil.which("unshare") or "unshare", *flags, "--", "/bin/sh", str(stage)]
 
 
 def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
@@ -259,13 +268,6 @@ def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
     reach = unreachable_python_dirs() if rt.uid is not None else {}
     reach_fds = {top: [(keep(p), p) for p in paths] for top, paths in reach.items()}
 
-    for p in rt.hidden:
-        if not os.path.lexists(p):
-            continue  # gone since the sandbox was made: nothing left to hide
-        if p.is_dir():
-            lines.append(f"mount -t tmpfs -o ro,nosuid,nodev,noexec,size=4k,mode=0555 tmpfs {q(str(p))}")
-        else:
-            lines.append(f"mount --bind /dev/null {q(str(p))}")
     if rt.private_tmp:
         for d in PRIVATE_TMP_DIRS:
             if os.path.isdir(d):
@@ -281,6 +283,23 @@ def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
             lines.append(f"mkdir -p {q(str(p))}")
             lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{kfd} {q(str(p))}")
             lines.append(f"mount -o remount,bind,ro {q(str(p))}")
+    # The hidden paths are covered last, on the tree as the code will see it: a path under a folder
+    # replaced by an empty tmpfs (the private /tmp, a private folder holding Python) is already gone
+    # and gets no mount, whose mount point would name it in /proc/self/mountinfo; one inside a
+    # folder bound back (a virtual environment under /tmp) is covered on the bound copy, which a
+    # plain bind does not carry over from the original.
+    covered = [Path(d).resolve() for d in PRIVATE_TMP_DIRS if rt.private_tmp and os.path.isdir(d)]
+    covered += [Path(top).resolve() for top in reach_fds]
+    bound = [p.resolve() for _, p in tmp_python] + [p.resolve() for kept in reach_fds.values() for _, p in kept]
+    for p in rt.hidden:
+        if not os.path.lexists(p):
+            continue  # gone since the sandbox was made: nothing left to hide
+        if _within(p, covered) and not _within(p, bound):
+            continue
+        if p.is_dir():
+            lines.append(f"mount -t tmpfs -o ro,nosuid,nodev,noexec,size=4k,mode=0555 tmpfs {q(str(p))}")
+        else:
+            lines.append(f"mount --bind /dev/null {q(str(p))}")
     if lib_fd is not None:
         lib = rt.lib_inside()
         lines.append(f"mkdir -p {q(str(lib))}")
@@ -309,3 +328,8 @@ def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
     lines.append("rc=$?")
     lines.append("exit $rc")
     return "\n".join(lines)
+
+
+def _within(path: Path, folders: list[Path]) -> bool:
+    """Whether ``path`` is one of ``folders`` or lies inside one."""
+    return any(path == f or f in path.parents for f in folders)

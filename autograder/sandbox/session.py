@@ -204,6 +204,11 @@ class Session:
         if not self.closed and self.load_failure is None and self.child is None and time.monotonic() < self.deadline:
             self._spawn()
 
+    def restart(self) -> None:
+        """End the child now: the next call gets a fresh one, which loads the code again and has seen
+        nothing earlier calls were given (their processes and files go with the old child)."""
+        self._stop()
+
     @property
     def info(self) -> SessionInfo:
         return SessionInfo(tuple(self.load_errors), tuple(self.defined), self.out.text(), self.err.text(),
@@ -235,7 +240,7 @@ class Session:
         os.close(w)
         cpu = math.ceil(max(self.deadline - time.monotonic(), 1.0)) + 5
         try:
-            proc = subprocess.Popen(script.command(self.rt, workdir, self.rt.child_argv(wfd)), stdin=subprocess.PIPE,
+            proc = subprocess.Popen(script.command(self.rt, workdir, self.rt.child_argv(wfd), jobdir), stdin=subprocess.PIPE,
                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, pass_fds=(wfd,),
                                     **script.popen_options(self.rt, workdir, cpu))
         except OSError as exc:
