@@ -5,21 +5,27 @@ turn about camera 1, without changing any projection.  So a bundle adjustment is
 reprojection error (recomputed here from the returned M2 and w) and by its reconstruction
 compared with the start's after a similarity alignment (core.geometry.similarity_align), never
 by |t|.
+
+The handout's residual itself is not here: what ships must not answer rodriguesResidual.  A
+:class:`ResidualCase` carries the residuals an input must give, computed on the grader's side
+(solutions.expected) or, at a scene's true configuration, from its exact projections.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from core.geometry import IDENTITY_POSE, camera_center, project, similarity_align
-from core.rotations import rodrigues
 
 from .mistakes import ba_mistakes, error_not_sum_of_squares, mistake, residual_layout
 from .pose import is_rotation
 from .verdict import Malformed, Verdict, fmt, log_score, read_array, read_number, read_parts
 
-__all__ = ["OPTIMUM_SLACK", "SHAPE_RTOL", "handout_residuals", "read_ba", "read_residuals", "reported_errors",
-           "residuals", "result", "result_goal", "rotation", "total_error"]
+__all__ = ["OPTIMUM_SLACK", "SHAPE_RTOL", "ResidualCase", "misreadings", "read_ba", "read_residuals",
+           "reported_errors", "residuals", "result", "result_goal", "rotation", "total_error"]
 
 # Full marks within half again of the optimum's error (plus 0.05 px^2).  Why 1.5: an optimiser
 # run to convergence reaches the optimum (minimize's defaults: 1.000 on every sweep problem); one
@@ -32,22 +38,20 @@ SHAPE_RTOL = 0.25      # the aligned reconstruction stays within 25 % of the sta
 RES_RTOL = 1e-6        # residuals equal the handout's to this share of their largest value (at least 1 px)
 
 
-def handout_residuals(K1, M1, p1, K2, p2, x) -> np.ndarray:
-    """The contract's residuals (4N,): [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()] at x = [w.ravel(), r2, t2].
+@dataclass(frozen=True, eq=False)
+class ResidualCase:
+    """One input of ``rodriguesResidual`` and the residuals it must give.
 
-    K1, K2 (3, 3); M1 (3, 4) = [R | t] of camera 1; p1, p2 (N, 2) pixels (x, y); x (3N + 6,):
-    the N points w (x y z each), camera 2's Rodrigues vector r2 and translation t2, M2 =
-    [rodrigues(r2) | t2].  The one home of the bundle-adjustment residual for the judgments and
-    the hidden tests' optimum (``autograder.hidden.cases.bundle``).  ``solutions.bundle`` writes
-    its own (``rodriguesResidual``), because the answer key prints that body; a test holds the two
-    equal (tests/test_one_home.py).  No input checks: callers pass well-formed arrays.
+    args: (K1 (3, 3), M1 (3, 4), p1 (N, 2), K2 (3, 3), p2 (N, 2), x (3N + 6,)), x = [w.ravel(), r2,
+    t2]; expected (4N,): the handout's [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()] at x;
+    misread: order -> (4N,) the handout's residuals of x read in that order (:func:`misreadings`),
+    empty when unknown.  Made on the grader's side (solutions.expected.residual_case) or, at a
+    scene's true x, from its exact projections; the residual itself never ships.
     """
-    p1, p2, x = np.asarray(p1, float), np.asarray(p2, float), np.asarray(x, float).ravel()
-    n = len(p1)
-    w = x[:3 * n].reshape(n, 3)
-    M2 = np.hstack([rodrigues(x[3 * n:3 * n + 3]), x[3 * n + 3:3 * n + 6, None]])
-    return np.concatenate([(p1 - project(np.asarray(K1, float) @ M1, w)).ravel(),
-                           (p2 - project(np.asarray(K2, float) @ M2, w)).ravel()])
+
+    args: tuple
+    expected: np.ndarray
+    misread: Mapping[str, np.ndarray] = field(default_factory=dict)
 
 
 def read_residuals(value, n: int) -> np.ndarray:
@@ -62,8 +66,9 @@ def _gap(r, e) -> float:
     return float(min(np.abs(r - e).max(), np.abs(r + e).max())) if np.all(np.isfinite(r)) else np.inf
 
 
-def _other_packings(x, n) -> dict:
-    """x as a student may have read it: name -> the x in the handout's order that gives the same w, r2, t2."""
+def misreadings(x, n: int) -> dict[str, np.ndarray]:
+    """x (3N + 6,) as a student may have read it: order -> the x in the handout's order that gives the
+    w, r2, t2 of that reading (their residuals name the x_packing mistake)."""
     x = np.asarray(x, float).ravel()
     w, r2, t2 = x[:3 * n], x[3 * n:3 * n + 3], x[3 * n + 3:]
     return {
@@ -74,23 +79,23 @@ def _other_packings(x, n) -> dict:
     }
 
 
-def residuals(r, K1, M1, p1, K2, p2, x) -> Verdict:
-    """r (4N,) are the handout's residuals at x (or their negatives: the objective is the same).
+def residuals(r, case: ResidualCase) -> Verdict:
+    """r (4N,) are the handout's residuals of ``case`` (or their negatives: the objective is the same).
 
     Names residual_layout (right values, another order) and x_packing (the residuals of x read
-    in another order).
+    in another order, when the case knows them).
     """
     what = "the handout's residual vector"
     r = np.asarray(r, float).ravel()
-    e = handout_residuals(K1, M1, p1, K2, p2, x)
+    e = np.asarray(case.expected, float).ravel()
     tol = RES_RTOL * max(1.0, float(np.abs(e).max()))
     gap = _gap(r, e)
     ok = gap <= tol
     found = []
     if not ok and np.all(np.isfinite(r)):
         found.append(residual_layout(r, e))
-        for order, x_read in _other_packings(x, len(np.asarray(p1))).items():
-            if _gap(r, handout_residuals(K1, M1, p1, K2, p2, x_read)) <= tol:
+        for order, other in case.misread.items():
+            if _gap(r, np.asarray(other, float).ravel()) <= tol:
                 found.append(mistake("x_packing", f"your residuals are those of x read as {order}"))
                 break
     return Verdict.of(what, ok, f"largest difference {fmt(gap)} px", f"<= {tol:.1g} px", found)

@@ -1,10 +1,10 @@
 """Q5: bundle adjustment of camera 2 and the points, rotation parameterised by a Rodrigues vector.
 
-The residual is written out here (``rodriguesResidual`` and its helper ``_residuals``) rather
-than imported, because the answer key prints these bodies (kit/notebooks copies a reference
-function with its helpers).  Everything else that needs the residual (the judgments, the hidden
-tests' optimum) uses ``judging.bundle.handout_residuals``; tests/test_one_home.py holds the two
-equal.
+The residual is written out here (``rodriguesResidual`` and its helper ``_residuals``): the answer
+key prints these bodies (kit/notebooks copies a reference function with its helpers).  It is the
+kit's one residual: what else needs it is grader-side and calls it (the hidden tests' optimum,
+solutions.expected's residuals for the judgments); nothing that ships computes it
+(tests/test_behaviour_leaks.py).
 """
 
 from __future__ import annotations

@@ -17,6 +17,8 @@ normalised-AST fingerprints, the same score and the same FLAG), with two readers
   discount it as code "the handout explains", so copies of it would go unseen.
 
 Each test names what it found; a helper the handout gives may ship, a working answer may not.
+Text is all these tests read: code that computes an answer in other words is found by running it
+(tests/test_behaviour_leaks.py calls every shipped callable on the graded functions' inputs).
 """
 
 from __future__ import annotations

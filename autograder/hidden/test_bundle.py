@@ -50,16 +50,17 @@ def adjusted(student, bundle) -> list:
 
 @pytest.mark.points(6, question="Q5", name="rodriguesResidual returns the handout's residuals")
 def test_rodriguesResidual_returns_the_handouts_residuals(student, bundle, score):
-    inputs = bundle.residual_inputs
-    outcomes = student.each("rodriguesResidual", inputs, seconds=SECONDS["rodriguesResidual"])
+    cases = bundle.residual_inputs
+    outcomes = student.each("rodriguesResidual", [c.args for c in cases], seconds=SECONDS["rodriguesResidual"])
     right, lines, mistakes = 0, [], []
-    for k, (inp, o) in enumerate(zip(inputs, outcomes), start=1):
+    for k, (case, o) in enumerate(zip(cases, outcomes), start=1):
+        inp = case.args
         try:
             r = read_returned("rodriguesResidual", o, lambda v, n=len(inp[2]): jb.read_residuals(v, n), inp)
         except Malformed as exc:
             lines.append(f"input {k}: {exc}")
             continue
-        v = jb.residuals(r, *inp)
+        v = jb.residuals(r, case)
         right += v.passed
         lines.append(f"input {k}: {v.sentence}")
         mistakes += v.mistakes

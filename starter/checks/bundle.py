@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -15,7 +18,12 @@ from ._common import finish, read_or_report, run_failed, stop_if_not_implemented
 from ._scenes import NO_DEFAULT_DATA, PUBLIC_SEED, NoisyPair, two_view
 from .report import CheckReport, call
 
-__all__ = ["BAProblem", "check_bundleAdjustment", "check_rodriguesResidual"]
+__all__ = ["BAProblem", "RESIDUAL_FILE", "check_bundleAdjustment", "check_rodriguesResidual", "residual_inputs",
+           "residual_cases"]
+
+# The residuals of the public inputs' x misread (judging.bundle.misreadings): computing them needs
+# the handout's residual, which cannot ship, so ``python -m kit check-data`` writes them here.
+RESIDUAL_FILE = Path(__file__).with_name("residual_case.json")
 
 _N_RESIDUAL = 20
 # A handout-style BFGS (numerical gradients over 3N + 6 unknowns) slows down steeply with N:
@@ -46,6 +54,37 @@ def _pack(w, M2) -> np.ndarray:
     return np.concatenate([np.asarray(w, float).ravel(), invRodrigues(M2[:, :3]), M2[:, 3]])
 
 
+def residual_inputs(tv: NoisyPair) -> list[tuple[str, tuple]]:
+    """(label, (K1, M1, p1, K2, p2, x)) of the check on the pair ``tv``: its first points at the true x
+    = [X.ravel(), r2, t2], with the exact matches and with the noisy (uint16) ones."""
+    pair = tv.pair
+    k = slice(0, _N_RESIDUAL)
+    x = _pack(pair.X[k], pair.M2)
+    return [("exact matches", (pair.K1, IDENTITY_POSE, pair.pts1[k], pair.K2, pair.pts2[k], x)),
+            ("noisy matches", (pair.K1, IDENTITY_POSE, tv.pts1_u16[k].astype(float), pair.K2,
+                               tv.pts2_u16[k].astype(float), x))]
+
+
+@lru_cache(maxsize=1)
+def _public_misread() -> dict:
+    return json.loads(RESIDUAL_FILE.read_text(encoding="utf-8"))["misread"]
+
+
+def residual_cases(tv: NoisyPair, misread: dict | None = None) -> list[tuple[str, jb.ResidualCase]]:
+    """(label, ResidualCase) of :func:`residual_inputs`.  At the true x every projection is the
+    pair's exact one, so the handout's residuals are the matches less those projections; the
+    residuals of x misread come from ``misread`` (label -> order -> (4N,); none when None)."""
+    pair = tv.pair
+    k = slice(0, _N_RESIDUAL)
+    out = []
+    for label, args in residual_inputs(tv):
+        p1, p2 = np.asarray(args[2], float), np.asarray(args[4], float)
+        expected = np.concatenate([(p1 - pair.pts1[k]).ravel(), (p2 - pair.pts2[k]).ravel()])
+        other = {order: np.array(r, float) for order, r in (misread or {}).get(label, {}).items()}
+        out.append((label, jb.ResidualCase(args, expected, other)))
+    return out
+
+
 def check_rodriguesResidual(rodriguesResidual, *, scene: NoisyPair | None = None, inputs=None, root=None,
                             verbose: bool = True) -> CheckReport:
     """Evaluate ``rodriguesResidual`` at the true configuration of a generated scene.
@@ -55,26 +94,25 @@ def check_rodriguesResidual(rodriguesResidual, *, scene: NoisyPair | None = None
     rodriguesResidual : the student's function (K1, M1, p1 (N, 2), K2, p2 (N, 2), x) -> (4N,)
         residuals, x = [w.ravel(), r2 (3,), t2 (3,)].
     scene : the pair to check on (default: the public generated pair).
-    inputs : instead, the (K1, M1, p1, K2, p2, x) tuples to check on.
+    inputs : instead, the judging.bundle.ResidualCase's to check on (inputs with the residuals they
+        must give).
     root : accepted like every check's; this one needs no data.
     verbose : print the report.
 
     Checked (judging.bundle.residuals): exactly the handout's [(p1 - p1_hat).ravel(), (p2 -
-    p2_hat).ravel()] (an overall sign is accepted): zero at the true x for exact matches.
+    p2_hat).ravel()] (an overall sign is accepted): zero at the true x for exact matches.  On the
+    public pair, residuals of x read in another order are named (x_packing).
     """
     report = CheckReport("rodriguesResidual")
     if inputs is None:
-        tv = scene or two_view()
-        pair = tv.pair
-        k = slice(0, _N_RESIDUAL)
-        x = _pack(pair.X[k], pair.M2)
-        inputs = [("exact matches", (pair.K1, IDENTITY_POSE, pair.pts1[k], pair.K2, pair.pts2[k], x)),
-                  ("noisy matches", (pair.K1, IDENTITY_POSE, tv.pts1_u16[k].astype(float), pair.K2,
-                                     tv.pts2_u16[k].astype(float), x))]
+        cases = residual_cases(scene or two_view(), None if scene is not None else _public_misread())
     else:
-        inputs = [(f"input {k}", inp) for k, inp in enumerate(inputs, start=1)]
-    for k, (where, inp) in enumerate(inputs):
-        inp = tuple(np.array(a, float) for a in inp)
+        cases = [(f"input {k}", case) for k, case in enumerate(inputs, start=1)]
+        if not all(isinstance(c, jb.ResidualCase) for _, c in cases):
+            raise ValueError("inputs: expected judging.bundle.ResidualCase's (inputs with their residuals), got "
+                             f"{sorted({type(c).__name__ for _, c in cases})}")
+    for k, (where, case) in enumerate(cases):
+        inp = tuple(np.array(a, float) for a in case.args)
         out = call(rodriguesResidual, *(a.copy() for a in inp))
         if k == 0 and stop_if_not_implemented(report, out):
             return finish(report, verbose)
@@ -82,7 +120,7 @@ def check_rodriguesResidual(rodriguesResidual, *, scene: NoisyPair | None = None
             continue
         r = read_or_report(report, jb.read_residuals, out.value, len(inp[2]), label=f"returns 4N residuals ({where})")
         if r is not None:
-            report.judged(jb.residuals(r, *inp), where)
+            report.judged(jb.residuals(r, case), where)
     return finish(report, verbose)
 
 

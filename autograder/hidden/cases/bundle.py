@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.geometry import project
-from judging.bundle import handout_residuals, result, total_error
+from judging.bundle import ResidualCase, result, total_error
 from starter.checks.bundle import BAProblem
 
 from ..scenes import Scenes
@@ -21,7 +21,7 @@ from .base import M1
 @dataclass(frozen=True, eq=False)
 class Bundle:
     problems: tuple[BAProblem, ...]        # the public check's problem type; optimum: the lowest error found
-    residual_inputs: tuple[tuple, ...]     # (K1, M1, p1, K2, p2, x) of rodriguesResidual
+    residual_inputs: tuple[ResidualCase, ...]   # (K1, M1, p1, K2, p2, x) of rodriguesResidual, with their residuals
 
 
 _SWING_DEG = 20.0
@@ -42,6 +42,7 @@ def _gauge_fixed_optimum(K1, K2, p1, p2, M2_init, w_init) -> float:
     import scipy.optimize
 
     from core.rotations import invRodrigues
+    from solutions import rodriguesResidual
 
     n = len(p1)
     t0 = M2_init[:, 3]
@@ -52,7 +53,7 @@ def _gauge_fixed_optimum(K1, K2, p1, p2, M2_init, w_init) -> float:
     def residuals(z):
         # z = [w, r2, two tangent coordinates of t]: the handout's x with t on its sphere.
         d = direction + tangent @ z[-2:]
-        return handout_residuals(K1, M1, p1, K2, p2, np.concatenate([z[:3 * n + 3], radius * d / np.linalg.norm(d)]))
+        return rodriguesResidual(K1, M1, p1, K2, p2, np.concatenate([z[:3 * n + 3], radius * d / np.linalg.norm(d)]))
 
     z0 = np.concatenate([w_init.ravel(), invRodrigues(M2_init[:, :3]), np.zeros(2)])
     fit = scipy.optimize.least_squares(residuals, z0, method="lm")
@@ -105,6 +106,8 @@ def _x_of(problem: BAProblem) -> np.ndarray:
 
 
 def prepare_bundle(scenes: Scenes) -> Bundle:
+    from solutions.expected import residual_case
+
     rng = np.random.default_rng(scenes.seed("bundle"))
     problems = tuple(_bundle_problem(tc.label, tc.scene, scenes.config.ba_points, rng) for tc in scenes.hidden[:2])
     inputs = []
@@ -112,5 +115,5 @@ def prepare_bundle(scenes: Scenes) -> Bundle:
         x = _x_of(pr)
         if k == 0:
             x = x + rng.normal(scale=0.01, size=x.shape)   # away from the start, where r2 matters too
-        inputs.append((pr.K1, M1, pr.p1, pr.K2, pr.p2, x))
+        inputs.append(residual_case(pr.K1, M1, pr.p1, pr.K2, pr.p2, x))
     return Bundle(problems, tuple(inputs))

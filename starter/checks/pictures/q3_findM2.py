@@ -11,7 +11,8 @@ puts every point in front of camera 1 and behind camera 2, and reprojects them b
 
 Trusted side (:func:`draw`): the candidates are starter.camera2(E) for E = K2^T F K1; each is
 drawn seen from above (x to the right, z forward, camera-1 coordinates) with the points a linear
-triangulation gives under it: green in front of both cameras, orange in front of camera 1 only,
+triangulation gives under it (precomputed on the grader's side for both cases: a triangulation
+cannot ship, see .precomputed): green in front of both cameras, orange in front of camera 1 only,
 purple in front of camera 2 only, red behind both.  The right one has every point in front of
 both; the chosen one is framed.  A depth test of camera 1 alone picks the all-orange one of the
 twisted pair.
@@ -23,10 +24,10 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from core.geometry import camera_center, depths
+from core.geometry import camera_center
 
+from . import precomputed
 from .arrays import call, maybe, need, read
-from .geometry3d import triangulate_views
 from .picture import Picture, figure, to_picture
 from .public import need_truth, temple
 
@@ -88,11 +89,13 @@ _CLASSES = (("in_front", "#2e7d32", True, True), ("front_1_only", "#ff6f00", Tru
             ("front_2_only", "#8e24aa", False, True), ("behind", "#e53935", False, False))
 
 
-def _panel(ax, k, M2c, X, z1, z2, chosen: bool, right: bool, label: str) -> None:
-    front = (z1 > 0) & (z2 > 0)
+def _panel(ax, k, M2c, pts: dict, chosen: bool, right: bool, label: str) -> None:
+    f1s, f2s = pts["front1"], pts["front2"]
+    front = f1s & f2s
+    X = np.column_stack([pts["x"], pts["z"]])           # (N, 2): x and z, camera-1 coordinates
     for gid, colour, f1, f2 in _CLASSES:
-        sel = ((z1 > 0) == f1) & ((z2 > 0) == f2)
-        ax.plot(X[sel, 0], X[sel, 2], ".", ms=3, color=colour, gid=gid)
+        sel = (f1s == f1) & (f2s == f2)
+        ax.plot(X[sel, 0], X[sel, 1], ".", ms=3, color=colour, gid=gid)
     c2 = camera_center(M2c)
     for centre, R, name in ((np.zeros(3), np.eye(3), "camera 1"), (c2, M2c[:, :3], "camera 2")):
         axis = R.T @ np.array([0.0, 0.0, 1.0])
@@ -103,7 +106,7 @@ def _panel(ax, k, M2c, X, z1, z2, chosen: bool, right: bool, label: str) -> None
     ax.axhline(0, color="#999", lw=0.5)
     good = np.all(np.isfinite(X), axis=1)
     xs = np.concatenate([np.percentile(X[good, 0], [5, 95]) if good.any() else [], [0.0, c2[0], -1, 1]])
-    zs = np.concatenate([np.percentile(X[good, 2], [5, 95]) if good.any() else [], [0.0, c2[2], -1, 1]])
+    zs = np.concatenate([np.percentile(X[good, 1], [5, 95]) if good.any() else [], [0.0, c2[2], -1, 1]])
     pad = 0.15 * max(np.ptp(xs), np.ptp(zs))
     ax.set_xlim(xs.min() - pad, xs.max() + pad)
     ax.set_ylim(zs.min() - pad, zs.max() + pad)
@@ -119,39 +122,36 @@ def _panel(ax, k, M2c, X, z1, z2, chosen: bool, right: bool, label: str) -> None
             side.set_linewidth(3)
 
 
-def _candidates(F, pts1, pts2, K1, K2):
-    """(candidates (3, 4, 4), points (4 of (N, 3)), depths in camera 1 and 2 (4 of (N,) each)) of one case."""
+def _candidates(case: str, F, pts1, pts2, K1, K2):
+    """(candidates (3, 4, 4), their points (4 dicts of .precomputed.candidates)) of one case."""
     from starter.pose import camera2
 
     cands = camera2(np.asarray(K2, float).T @ np.asarray(F, float) @ np.asarray(K1, float))
-    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
-    pts, z1s, z2s = [], [], []
-    for k in range(4):
-        X = triangulate_views([K1 @ M1, K2 @ cands[:, :, k]], [pts1, pts2])
-        with np.errstate(invalid="ignore"):
-            z1s.append(np.nan_to_num(depths(M1, X), nan=-1.0))
-            z2s.append(np.nan_to_num(depths(cands[:, :, k], X), nan=-1.0))
-        pts.append(X)
-    return cands, pts, z1s, z2s
+    pts = precomputed.candidates(case, (pts1, pts2, K1, K2))
+    if pts is None:
+        raise ValueError(f"Q3.3's figure: the points under each candidate are {precomputed.NOT_PRECOMPUTED} "
+                         "(restore data/ with `python -m kit data`, or write them with `python -m kit check-data`)")
+    return cands, pts
 
 
-def _case(axes, M2, F, pts1, pts2, K1, K2, label: str, prefix: str, m: dict) -> str:
+def _case(axes, M2, case: str, F, pts1, pts2, K1, K2, label: str, prefix: str, m: dict) -> str:
     """Draw one case's four candidates into ``axes``; add its measures to ``m``; return its sentence."""
-    cands, pts, z1s, z2s = _candidates(F, pts1, pts2, K1, K2)
-    fronts = [(a > 0) & (b > 0) for a, b in zip(z1s, z2s)]
+    cands, pts = _candidates(case, F, pts1, pts2, K1, K2)
+    fronts = [p["front1"] & p["front2"] for p in pts]
+    ones = [p["front1"] & ~p["front2"] for p in pts]
     right = int(np.argmax([f.sum() for f in fronts]))
     chosen, gap = candidate_of(M2, cands)
     for k, ax in enumerate(axes):
-        _panel(ax, k, cands[:, :, k], pts[k], z1s[k], z2s[k], k == chosen, k == right, label)
+        _panel(ax, k, cands[:, :, k], pts[k], k == chosen, k == right, label)
     n = len(pts1)
     m.update({f"{prefix}chosen": float(chosen), f"{prefix}chosen_gap_deg": gap, f"{prefix}right": float(right),
               f"{prefix}chosen_share_in_front": float(fronts[chosen].mean()) if chosen >= 0 else float("nan"),
-              f"{prefix}chosen_share_front_1_only": float(np.mean((z1s[chosen] > 0) & ~(z2s[chosen] > 0)))
+              f"{prefix}chosen_share_front_1_only": float(np.mean(ones[chosen]))
               if chosen >= 0 else float("nan"),
               f"{prefix}right_share_in_front": float(fronts[right].mean())})
     shares = "; ".join(f"candidate {k + 1}: {int(f.sum())} of {n}" for k, f in enumerate(fronts))
     if chosen >= 0:
-        one = int(((z1s[chosen] > 0) & ~(z2s[chosen] > 0)).sum())
+        one = int(ones[chosen].sum())
         yours = (f"yours is candidate {chosen + 1} (framed), with {int(fronts[chosen].sum())} of {n} points in front "
                  f"of both cameras and {one} in front of camera 1 only")
     else:
@@ -177,7 +177,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     rows = 1 if twisted is None else 2
     fig, axes = figure(4, rows, size=(3.6, 3.4))
     m: dict[str, float] = {}
-    text = _case(axes[:4], M2, s.F_true, d.pts1, d.pts2, d.K1, d.K2, "", "", m)
+    text = _case(axes[:4], M2, "default", s.F_true, d.pts1, d.pts2, d.K1, d.K2, "", "", m)
     from matplotlib.lines import Line2D
 
     names = {"in_front": "in front of both", "front_1_only": "in front of camera 1 only",
@@ -189,7 +189,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            f"camera 2 only, red behind both). {text}")
     if twisted is not None:
         case = public_case()
-        text = _case(axes[4:], twisted, case.F, case.pts1, case.pts2, case.pair.K1, case.pair.K2, "twisted pair: ",
+        text = _case(axes[4:], twisted, "twisted", case.F, case.pts1, case.pts2, case.pair.K1, case.pair.K2, "twisted pair: ",
                      "twisted_", m)
         alt += f" The twisted-pair case ({len(case.pts1)} matches near the epipoles): {text}"
     return to_picture("Q3.3", "findM2: the four candidates, and yours", fig, alt, m)

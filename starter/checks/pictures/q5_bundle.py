@@ -7,7 +7,8 @@ p1, K2, p2, x)`` at the start x = [w_init.ravel(), r2, t2] when given.
 
 Trusted side (:func:`draw`): the objective call by call; image 2 with the observed points and
 their reprojections before and after; and the student's residuals at the
-start against the handout's layout [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()].
+start against the handout's layout [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()] (those of the
+handout precomputed on the grader's side, see .precomputed: the residual cannot ship).
 """
 
 from __future__ import annotations
@@ -18,21 +19,16 @@ import numpy as np
 
 from core.geometry import project
 
+from . import precomputed
 from .arrays import call, maybe, need, number, read
 from .drawing import image
 from .picture import Picture, figure, fmt, to_picture
 from .public import need_truth, temple
-from .q5_problem import problem, recording
+from .q5_problem import problem, recording, start_x
 
 __all__ = ["FUNCTIONS", "draw", "run"]
 
 FUNCTIONS = ("bundleAdjustment", "rodriguesResidual")
-
-
-def _x0(pr) -> np.ndarray:
-    from starter.rotations import invRodrigues
-
-    return np.concatenate([pr.w_init.ravel(), invRodrigues(pr.M2_init[:, :3]), pr.M2_init[:, 3]])
 
 
 def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
@@ -47,7 +43,7 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
     out = {}
     rr = functions.get("rodriguesResidual")
     if callable(rr):
-        r = call(rr, "rodriguesResidual", pr.K1.copy(), pr.M1.copy(), pr.p1.copy(), pr.K2.copy(), pr.p2.copy(), _x0(pr))
+        r = call(rr, "rodriguesResidual", pr.K1.copy(), pr.M1.copy(), pr.p1.copy(), pr.K2.copy(), pr.p2.copy(), start_x(pr))
         out["residuals_start"] = np.asarray(read(read_residuals, r, len(pr.p1), name="rodriguesResidual"), float)
     ba = functions["bundleAdjustment"]
     with recording(ba) as recorded:
@@ -76,9 +72,10 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     recorded), history_first, history_min (the first and the lowest recorded objective; NaN when none),
     t_ratio (|t| returned / |t| at the start), residual_layout_gap (largest difference of the
     student's residuals at the start from the handout's, over the largest of these, up to sign;
-    present when rodriguesResidual was run).
+    present when rodriguesResidual was run).  ValueError when rodriguesResidual was run and the
+    handout's residuals of the problem were not precomputed (data other than the default).
     """
-    from judging.bundle import handout_residuals, total_error
+    from judging.bundle import total_error
 
     pub = temple(root)
     pr = problem(need_truth(pub, "Q5"), pub.data)
@@ -89,6 +86,10 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     from_residual = float(need(outputs, "history_source", (1,))[0]) == 0
     source = "rodriguesResidual" if from_residual else "the optimiser's objective"
     res = maybe(outputs, "residuals_start", (4 * n,))
+    e = None if res is None else precomputed.start_residuals(pr.p1, pr.p2, pr.K1, pr.K2)
+    if res is not None and e is None:
+        raise ValueError(f"Q5's figure: the handout's residuals at the start are {precomputed.NOT_PRECOMPUTED} "
+                         "(restore data/ with `python -m kit data`, or write them with `python -m kit check-data`)")
     start = total_error(pr.K1, pr.K2, pr.p1, pr.p2, pr.M2_init, pr.w_init)
     end = total_error(pr.K1, pr.K2, pr.p1, pr.p2, M2, w)
     m = {"start_error": start, "end_error": end, "o1_reported": o1, "o2_reported": o2,
@@ -127,7 +128,6 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     ax.set_xlabel("segments from each observed point (dot) to its reprojection:\ngrey before, orange after "
                   "(too short to see: within a pixel)", fontsize=7)
     if res is not None:
-        e = handout_residuals(pr.K1, pr.M1, pr.p1, pr.K2, pr.p2, _x0(pr))
         scale = max(float(np.abs(e).max()), 1e-12)
         m["residual_layout_gap"] = float(min(np.abs(res - e).max(), np.abs(res + e).max()) / scale)
         ax = axes[2]

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["N_POINTS", "Problem", "problem", "recording"]
+__all__ = ["N_POINTS", "Problem", "problem", "recording", "start_x"]
 
 N_POINTS = 20
 SEED = 2024
@@ -57,6 +57,13 @@ def problem(scene, data) -> Problem:
     M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
     return Problem(np.array(data.K1, float), np.array(data.K2, float), M1, np.array(data.pts1[:n], float),
                    np.array(data.pts2[:n], float), np.hstack([R0, t0[:, None]]), w0)
+
+
+def start_x(pr: Problem) -> np.ndarray:
+    """The start as rodriguesResidual's x (3N + 6,) = [w_init.ravel(), r2, t2] of M2_init."""
+    from starter.rotations import invRodrigues
+
+    return np.concatenate([pr.w_init.ravel(), invRodrigues(pr.M2_init[:, :3]), pr.M2_init[:, 3]])
 
 
 def _sum_of_squares(value) -> float:

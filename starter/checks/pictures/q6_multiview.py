@@ -8,9 +8,10 @@ default data holds detections at exactly that confidence, so using them shows).
 Trusted side (:func:`draw`): each view with its detections (filled: confidence above Thres, used by
 the handout's rule; hollow: at or below), the student's P reprojected (crosses, joined to their
 detections) and the true keypoints reprojected (default data); a keypoint the handout's rule
-reconstructs and the student's P leaves out is ringed in red.  The student's P is also compared
-with linear triangulations under three rules (confidence > Thres, >= Thres, every detection):
-the rule it is nearest names the threshold the code applied.
+reconstructs and the student's P leaves out is ringed in red.  On the default data the student's P
+is also compared with linear triangulations under three rules (confidence > Thres, >= Thres, every
+detection; precomputed on the grader's side, see .precomputed): the rule it is nearest names the
+threshold the code applied.
 """
 
 from __future__ import annotations
@@ -21,12 +22,12 @@ import numpy as np
 
 from core.geometry import project
 
+from . import precomputed
 from .arrays import call, need, number, read
-from .geometry3d import triangulate_views
 from .picture import Picture, figure, fmt, to_picture
 from .public import car
 
-__all__ = ["FUNCTIONS", "RULES", "THRES", "draw", "rule_points", "run"]
+__all__ = ["FUNCTIONS", "RULES", "THRES", "draw", "run"]
 
 FUNCTIONS = ("MultiviewReconstruction",)
 THRES = 500.0
@@ -46,13 +47,9 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
     return {"P": np.asarray(P, float), "err": number(err, "err")}
 
 
-def rule_points(C, pts, Thres) -> dict[str, np.ndarray]:
-    """Rule name -> (N, 3) linear triangulation of the detections the rule keeps (NaN: under two views)."""
-    out = {}
-    for rule, keep in zip(RULES, (lambda c: c > Thres, lambda c: c >= Thres, lambda c: np.ones_like(c, bool))):
-        views = [np.where(keep(p[:, 2])[:, None], p[:, :2], np.nan) for p in pts]
-        out[rule] = triangulate_views(C, views)
-    return out
+def _handout_rule_reconstructs(pts, Thres) -> np.ndarray:
+    """(N,) bool: the keypoints the handout's rule (confidence > Thres) sees in two views or more."""
+    return np.sum([np.asarray(p, float)[:, 2] > Thres for p in pts], axis=0) >= 2
 
 
 def _nearest_rule(P, rules) -> tuple[int, dict[str, float]]:
@@ -81,9 +78,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     measures: mean_reprojection_px (the student's P reprojected, to the detections above Thres of
     the keypoints it reconstructed, pixels), n_reconstructed (finite rows of P), mean_error_3d (to the
     true keypoints, world units; default data only), err_reported, nearest_rule (index in RULES of
-    the rule whose triangulation P is nearest, -1 when the rules agree everywhere), gap_<k> (mean
-    distance of P to rule k's points where the rules differ, world units; 1e6 for a point one has
-    and the other has not), detections_at_thres (detections whose confidence is exactly Thres),
+    the rule whose triangulation P is nearest, -1 when the rules agree everywhere or are not known:
+    other data than the default), gap_<k> (mean distance of P to rule k's points where the rules
+    differ, world units; 1e6 for a point one has and the other has not; default data only), detections_at_thres (detections whose confidence is exactly Thres),
     n_left_out (keypoints the handout's rule, confidence > Thres in two views or more, reconstructs and
     P leaves out: ringed in red in every view).
     """
@@ -94,10 +91,10 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     P = need(outputs, "P", (n, 3))
     err = float(need(outputs, "err", (1,))[0])
     finite = np.all(np.isfinite(P), axis=1)
-    rules = rule_points(C, pts, THRES)
-    nearest, gaps = _nearest_rule(P, rules)
+    rules = precomputed.rules(C, pts)
+    nearest, gaps = _nearest_rule(P, rules) if rules is not None else (-1, {})
     # keypoints the handout's rule (RULES[0]) reconstructs that P leaves out: ringed in every view
-    left_out = ~finite & np.all(np.isfinite(rules[RULES[0]]), axis=1)
+    left_out = ~finite & _handout_rule_reconstructs(pts, THRES)
     fig, axes = figure(3, 1, size=(4.6, 4.0))
     dists = []
     for k, (ax, Ck, p) in enumerate(zip(axes, C, pts)):
@@ -130,7 +127,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
          "detections_at_thres": float(sum(int(np.sum(p[:, 2] == THRES)) for p in pts)),
          "n_left_out": float(left_out.sum())}
     for k, rule in enumerate(RULES):
-        m[f"gap_{k}"] = gaps[rule]
+        if rule in gaps:
+            m[f"gap_{k}"] = gaps[rule]
     if P_true is not None:
         with np.errstate(invalid="ignore"):
             m["mean_error_3d"] = float(np.mean(np.linalg.norm(P[finite] - P_true[finite], axis=1))) if finite.any() \
@@ -139,16 +137,19 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
                        "+: the true keypoints", fontsize=7)
     missing = (f"{int(left_out.sum())} keypoint(s) that {RULES[0]} reconstructs are not in your P (red rings)"
                if left_out.any() else "")
-    axes[1].set_xlabel((f"your P is nearest to the triangulation of {RULES[nearest]}" if nearest >= 0 else
-                        "the three rules give the same points here") + (f"\n{missing}" if missing else ""),
-                       fontsize=8)
-    rule = (f"your P is nearest to a triangulation of the detections with {RULES[nearest]}" if nearest >= 0
-            else "the three rules give the same points here")
+    if rules is None:
+        rule = f"the comparison with the three threshold rules is {precomputed.NOT_PRECOMPUTED}"
+    elif nearest >= 0:
+        rule = f"your P is nearest to a triangulation of the detections with {RULES[nearest]}"
+    else:
+        rule = "the three rules give the same points here"
+    axes[1].set_xlabel(rule.replace("your P is nearest to a", "your P is nearest to the")
+                       + (f"\n{missing}" if missing else ""), fontsize=8)
     alt = (f"The three views of time step {frame.time} with the 12 detections of each (Thres = {THRES:g}; "
            f"{int(m['detections_at_thres'])} detections have exactly that confidence) and your {int(finite.sum())} "
            f"reconstructed keypoints reprojected: mean distance {fmt(m['mean_reprojection_px'], 'px')} to the "
            f"detections above Thres"
            + (f"; mean 3D distance to the true keypoints {fmt(m['mean_error_3d'])}" if "mean_error_3d" in m else "")
-           + f". Of three rules, {rule}." + (f" {missing[0].upper()}{missing[1:]}." if missing else "")
+           + (f". Of three rules, {rule}." if rules is not None else f"; {rule}.") + (f" {missing[0].upper()}{missing[1:]}." if missing else "")
            + f" Your err: {fmt(err)}.")
     return to_picture("Q6", "MultiviewReconstruction: your keypoints in the three views", fig, alt, m)
