@@ -13,24 +13,36 @@ The list is ``DEFAULT_LIBRARY_CALLS`` unless the instructor's grader config name
 (``library_calls``: a list of dotted names, see ``autograder.config``).  A listed name covers
 what is under it: ``scipy.spatial.transform.Rotation`` covers ``Rotation.from_rotvec``.
 
+The kit's own code is looked at the same way, always (whatever the list): a use of the kit
+beyond what a student is given (``GIVEN_KIT``: the handout's helpers, the loaders and drawing
+helpers, the self-checks, the hand-in tools, and what the answer key itself imports) is reported
+as a kit internal, ``from judging.bundle import ...`` or ``starter.checks.pictures...`` alike: the
+self-checks and the figures ship with the kit, and none of their insides is the student's to call.
+Only names reached through the file's imports count (a variable called ``scenes`` is no package).
+
 What is found goes to the staff only (the grade run's summary.md, the class report): it is a
-reason to read the code, never a score, and static (``getattr(cv2, "find" + ...)`` escapes it).
+reason to read the code, never a score, and static (``getattr(cv2, "find" + ...)`` or
+``importlib.import_module`` escape it).
 """
 
 from __future__ import annotations
 
 import ast
+import fnmatch
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
+
+from core.paths import KIT_ROOT
 
 from core.untrusted import visible
 
 from .reader import _blank_magics, code_units
 
-__all__ = ["DEFAULT_LIBRARY_CALLS", "LibraryCall", "find_in_class", "find_in_sources", "find_library_calls",
-           "library_names", "markdown_code"]
+__all__ = ["DEFAULT_LIBRARY_CALLS", "GIVEN_KIT", "KIT_INTERNAL", "KIT_PACKAGES", "LibraryCall", "find_in_class",
+           "find_in_sources", "find_library_calls", "kit_internal", "library_names", "markdown_code"]
 
 # listed name -> what of the homework it does (shown beside each use)
 DEFAULT_LIBRARY_CALLS: dict[str, str] = {
@@ -57,6 +69,26 @@ DEFAULT_LIBRARY_CALLS: dict[str, str] = {
     "sklearn.linear_model.RANSACRegressor": "RANSAC",
     "kornia.geometry.epipolar": "two-view geometry",
 }
+
+# The kit's top-level packages: a name under one of them is the kit's own.
+KIT_PACKAGES = ("core", "scenes", "starter", "judging", "handin", "solutions", "autograder", "kit")
+# What of the kit a student may import (README, "For students"): module -> the names of it given
+# (patterns; None: all of it, submodules included; "starter" gives what its __all__ lists).  A key
+# ending in ".*" stands for each module directly under it.  Anything else of KIT_PACKAGES is internal.
+GIVEN_KIT: dict[str, tuple[str, ...] | None] = {
+    "starter": None,            # replaced by starter/__init__.py's __all__ (read, not imported)
+    **{f"starter.{m}": None for m in ("data", "epipolar", "figures", "interactive", "keypoints", "pose", "ransac",
+                                      "rotations", "notebook_import", "slow_call", "refine_comparison")},
+    "starter.checks": ("check_*",),             # the self-checks
+    "starter.checks.*": ("check_*",),
+    "core.rotations": ("rodrigues", "invRodrigues"),   # the handout's helpers where they are defined
+    "core.pose": ("camera2",),
+    "core.validate": None,                      # the input checks the answer key uses
+    "core.geometry": ("project", "depths", "IDENTITY_POSE"),
+    "scenes.cameras": ("intrinsics", "look_at", "project"),   # Q1's picture of fixating cameras
+    "handin": None,                             # handing in: the PDF, the code zip, the browser
+}
+KIT_INTERNAL = "a kit internal, not one of the helpers a student is given"
 
 _DOTTED = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)+$")
 _SHOWN = 160  # characters of a use's code kept in the report
@@ -99,6 +131,47 @@ def library_names(names: Iterable[str] | None = None) -> dict[str, str]:
     return {n: DEFAULT_LIBRARY_CALLS.get(n, "") for n in names}
 
 
+@lru_cache(maxsize=1)
+def _starter_given() -> tuple[str, ...]:
+    """starter/__init__.py's ``__all__``, read from its text (the review imports no student-facing code)."""
+    tree = ast.parse((KIT_ROOT / "starter" / "__init__.py").read_text(encoding="utf-8"))
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets):
+            return tuple(ast.literal_eval(node.value))
+    return ()
+
+
+def _given_names(module: str) -> tuple[str, ...] | None | bool:
+    """The names ``module`` gives (None: all); False when it is no key of GIVEN_KIT."""
+    if module == "starter":
+        return _starter_given()
+    if module in GIVEN_KIT:
+        return GIVEN_KIT[module]
+    parent = module.rpartition(".")[0]
+    return GIVEN_KIT.get(f"{parent}.*", False) if parent else False
+
+
+def kit_internal(qualified: str) -> bool:
+    """Whether the dotted name ``qualified`` is of the kit (KIT_PACKAGES) and not given to students.
+
+    A module on the way to a given name (``starter.checks``) is not internal: what is used of it is
+    judged at the use.  ``module.*`` (a star import) is internal unless the module gives all it holds
+    (``starter`` gives its ``__all__``, which a star import takes)."""
+    parts = qualified.split(".")
+    if parts[0] not in KIT_PACKAGES:
+        return False
+    if any(k == qualified or k.startswith(qualified + ".") for k in GIVEN_KIT) or _given_names(qualified) is not False:
+        return False                                            # a module a given name lies in
+    for k in range(len(parts) - 1, 0, -1):
+        names = _given_names(".".join(parts[:k]))
+        if names is False:
+            continue
+        if names is None or (parts[k] == "*" and k == 1 and parts[0] == "starter"):
+            return False
+        return not any(fnmatch.fnmatchcase(parts[k], pattern) for pattern in names)
+    return True
+
+
 def _listed(qualified: str, names: dict[str, str]) -> str | None:
     """The listed name that ``qualified`` is or is under, else None."""
     parts = qualified.split(".")
@@ -115,6 +188,7 @@ class _Aliases:
     def __init__(self, parsed: Sequence[tuple[str, str, ast.AST]]):
         self.bound: dict[str, str] = {}
         self.star: list[str] = []
+        self.star_imports: list[tuple[str, ast.stmt, int]] = []  # (module, statement, source)
         self.imports: list[tuple[str, str, ast.stmt, int]] = []  # (local name, qualified name, statement, source)
         for k, (_, text, tree) in enumerate(parsed):
             for node in ast.walk(tree):
@@ -127,6 +201,7 @@ class _Aliases:
                     for a in node.names:
                         if a.name == "*":
                             self.star.append(node.module)
+                            self.star_imports.append((node.module, node, k))
                             continue
                         self.bound[a.asname or a.name] = f"{node.module}.{a.name}"
                         self.imports.append((a.asname or a.name, f"{node.module}.{a.name}", node, k))
@@ -154,7 +229,20 @@ class _Aliases:
                 out.add(local)
         for module in self.star:
             out.update(n[len(module) + 1:].split(".")[0] for n in names if n.startswith(module + "."))
+        out.update(local for local, qualified in self.bound.items() if qualified.split(".")[0] in KIT_PACKAGES)
         return out
+
+    def kit_name(self, node: ast.AST) -> tuple[str, str] | None:
+        """(local name, qualified name) of a Name or Attribute chain whose head an import binds to the
+        kit (KIT_PACKAGES), else None."""
+        attrs = []
+        while isinstance(node, ast.Attribute):
+            attrs.append(node.attr)
+            node = node.value
+        if not isinstance(node, ast.Name) or node.id not in self.bound:
+            return None
+        qualified = ".".join([self.bound[node.id], *reversed(attrs)])
+        return (node.id, qualified) if qualified.split(".")[0] in KIT_PACKAGES else None
 
 
 def _one_line(segment: str) -> str:
@@ -183,6 +271,20 @@ class _Finder(ast.NodeVisitor):
                                       f"{self.origin}, line {shown.lineno}", ".".join(self.function)))
         return True
 
+    def _kit(self, target: ast.AST, shown: ast.AST, kind: str) -> bool:
+        """Whether ``target`` is a kit name reached through an import (judged whole: its parts are not
+        visited); an internal one is recorded."""
+        found = self.aliases.kit_name(target)
+        if found is None:
+            return False
+        local, qualified = found
+        self.used.add(local)
+        if kit_internal(qualified):
+            code = ast.get_source_segment(self.text, shown) or ast.unparse(shown)
+            self.found.append(LibraryCall(qualified, KIT_INTERNAL, kind, _one_line(code),
+                                          f"{self.origin}, line {shown.lineno}", ".".join(self.function)))
+        return True
+
     def _scope(self, node) -> None:
         self.function.append(node.name)
         self.generic_visit(node)
@@ -192,17 +294,17 @@ class _Finder(ast.NodeVisitor):
 
     def visit_Call(self, node: ast.Call) -> None:
         # the call as a whole is the use; its arguments may hold more (f(cv2.Rodrigues(r)))
-        if not self._hit(node.func, node, "call"):
+        if not self._kit(node.func, node, "call") and not self._hit(node.func, node, "call"):
             self.visit(node.func)
         for child in [*node.args, *node.keywords]:
             self.visit(child)
 
     def visit_Attribute(self, node: ast.Attribute) -> None:
-        if not self._hit(node, node, "reference"):
+        if not self._kit(node, node, "reference") and not self._hit(node, node, "reference"):
             self.generic_visit(node)
 
     def visit_Name(self, node: ast.Name) -> None:
-        if isinstance(node.ctx, ast.Load):
+        if isinstance(node.ctx, ast.Load) and not self._kit(node, node, "reference"):
             self._hit(node, node, "reference")
 
     def visit_Import(self, node) -> None:  # imports are reported below, when unused
@@ -246,9 +348,16 @@ def find_in_sources(sources: Sequence[tuple[str, str]], names: dict[str, str] | 
         used |= finder.used
     for local, qualified, stmt, k in aliases.imports:
         listed = _listed(qualified, names)
-        if listed and local not in used:
+        internal = kit_internal(qualified)
+        if (listed or internal) and local not in used:
             origin, text, _ = parsed[k]
-            found.append(LibraryCall(listed, names[listed], "import",
+            found.append(LibraryCall(listed or qualified, names[listed] if listed else KIT_INTERNAL, "import",
+                                     _one_line(ast.get_source_segment(text, stmt) or ast.unparse(stmt)),
+                                     f"{origin}, line {stmt.lineno}", ""))
+    for module, stmt, k in aliases.star_imports:
+        if kit_internal(f"{module}.*"):
+            origin, text, _ = parsed[k]
+            found.append(LibraryCall(f"{module}.*", KIT_INTERNAL, "import",
                                      _one_line(ast.get_source_segment(text, stmt) or ast.unparse(stmt)),
                                      f"{origin}, line {stmt.lineno}", ""))
     return found, notes
