@@ -259,7 +259,7 @@ def test_similarity_json_shows_the_hidden_characters_of_names_and_notes(tmp_path
     (folder / "q2_\u2066answers.py").write_text((CORPUS / "alice.py").read_text())
     (folder / "q3_\u200bbroken.py").write_text("def triangulate(:\n")
     out = tmp_path / "out"
-    assert main(["similar", str(folder), str(CORPUS / "bo.py"), "--out", str(out)]) == 0
+    assert main(["similar", str(folder), str(CORPUS / "bo.py"), "--out", str(out), "--keep-starter"]) == 0
     data = json.loads((out / "similarity.json").read_text())
 
     def strings(value):
