@@ -44,7 +44,7 @@ import pytest
 from core.manifest import QUESTIONS, question
 from core.untrusted import for_terminal
 
-from .feedback import failure, notes, tidy
+from .feedback import failure, named_mistakes, notes, tidy
 
 __all__ = ["HIDDEN_DIR", "CheckFailed", "Local", "config_of", "run_here", "LocalStudent", "Score", "Student", "StudentError"]
 
@@ -220,6 +220,7 @@ class Score:
         self.value: float | None = None
         self.lines: list[str] = []
         self.results: list = []
+        self.mistakes: tuple[str, ...] = ()   # catalogue codes the check's judging named (``grade``)
 
     def fraction(self, value: float, *lines: str) -> None:
         """Give ``value`` (clipped to [0, 1]) of the test's points, with feedback ``lines``."""
@@ -239,6 +240,8 @@ class Score:
         catalogue ``mistakes`` named when not full marks.  A share of 0 fails the test."""
         fraction = float(fraction) if math.isfinite(float(fraction)) else 0.0
         text = notes(lines, mistakes, passed=fraction >= 1.0)
+        # What the judging named, recorded for the class report (never read back from the words).
+        self.mistakes = tuple(m.code for m in named_mistakes(mistakes, passed=fraction >= 1.0))
         if fraction <= 0.0:
             raise CheckFailed(text)
         self.fraction(fraction, *text)
@@ -494,7 +497,8 @@ def pytest_runtest_makereport(item, call):
             return
         fraction = 1.0 if score is None or score.value is None else score.value
         text = "  \n".join(tidy(line) for line in (score.lines if score else []))
-        store[item.nodeid] = (qid, [TestResult(name, points * fraction, points, fraction >= 1.0, text, visibility)])
+        store[item.nodeid] = (qid, [TestResult(name, points * fraction, points, fraction >= 1.0, text, visibility,
+                                               score.mistakes if score is not None else ())])
         return
     if item.nodeid in store and call.when == "teardown":
         return
@@ -508,7 +512,8 @@ def pytest_runtest_makereport(item, call):
         item.config._hw4["log"].append(f"{item.nodeid} ({call.when}):\n{report.longreprtext}")
         feedback = ("The autograder could not judge this check because of an internal error; the course staff "
                     "has been told and will grade it.")
-    store[item.nodeid] = (qid, [TestResult(name, 0.0, points, False, feedback, visibility)])
+    recorded = score.mistakes if isinstance(exc, CheckFailed) and score is not None else ()
+    store[item.nodeid] = (qid, [TestResult(name, 0.0, points, False, feedback, visibility, recorded)])
 
 
 def collect_result(config):
