@@ -16,10 +16,12 @@ KIT_ROOT = Path(__file__).resolve().parents[1]
 DATA_DIR = KIT_ROOT / "data"
 NOTEBOOKS_DIR = KIT_ROOT / "notebooks"
 # The folders, relative to where a student's code runs, that the handouts told it to save its
-# results into (2018-2021 `results/`, 2022-2024 `result/`): the grader's sandbox makes them
-# (``autograder.sandbox.script.RESULT_DIRS``, and their `../` twins), and a self-check that meets
-# a function writing into a missing one makes it and calls again (``starter.checks.report.call``).
-RESULT_FOLDERS = ("results", "result")
+# results into (2018-2021 `results/`, 2022-2024 `result/`, and `data/`: the course's drivers ran
+# from python/ and saved beside the data, `np.savez('../data/q2_1.npz', ...)`): the grader's
+# sandbox makes them in the child's throw-away scratch (``autograder.sandbox.script.RESULT_DIRS``,
+# and their `../` twins), and a self-check that meets a function writing into a missing one makes
+# it and calls again (``starter.checks.report.call``).
+RESULT_FOLDERS = ("results", "result", "data")
 
 ENV_DATA = "HW4_DATA"
 ENV_COURSE_DATA = "HW4_COURSE_DATA"

@@ -53,24 +53,40 @@ def _shape(v):
         return None
 
 
+def _points_shape(shape, n: int) -> bool:
+    """True for the shape of n 3D points: (n, 3), or homogeneous (n, 4)."""
+    return shape in ((n, 3), (n, 4))
+
+
+def _dehomogenised(value, n: int) -> np.ndarray:
+    """w (n, 3) from n points (n, 3), or homogeneous (n, 4) (divided by their last column: a point
+    whose last entry is 0 is at infinity, not finite, so never right); or Malformed."""
+    if _shape(value) == (n, 4):
+        wh = read_array(value, (n, 4), "the 3D points")
+        with np.errstate(all="ignore"):
+            return wh[:, :3] / wh[:, 3:]
+    return read_array(value, (n, 3), "the 3D points")
+
+
 def read_points(value, n: int) -> np.ndarray:
     """w (n, 3) from compute3D_pts's result, or Malformed.
 
     Accepted: w alone; a tuple or list starting with w ((w, pts2), (w, err)); or, as 2022-2024
     hand-ins return it, a tuple holding w among 3 x 4 matrices ((M2, C2, P), (M2, C2, P, M1, C1)):
-    the one element of shape (n, 3).  A 3 x 4 matrix alone (M2 or C2) is Malformed, saying so.
+    the one element of shape (n, 3).  w may be homogeneous (n, 4), as triangulate's SVD gives
+    it: divided by its last column.  A 3 x 4 matrix alone (M2 or C2) is Malformed, saying so.
     """
     if isinstance(value, (tuple, list)) and value and not np.isscalar(value[0]):
         shapes = [_shape(v) for v in value]
-        if shapes[0] != (n, 3) and all(sh is not None and len(sh) == 2 for sh in shapes):
-            found = [v for v, sh in zip(value, shapes) if sh == (n, 3)]
+        if not _points_shape(shapes[0], n) and all(sh is not None and len(sh) == 2 for sh in shapes):
+            found = [v for v, sh in zip(value, shapes) if _points_shape(sh, n)]
             if len(found) == 1:
-                return read_array(found[0], (n, 3), "the 3D points")
-        if len(value) in (2, 3) or shapes[0] == (n, 3):
+                return _dehomogenised(found[0], n)
+        if len(value) in (2, 3) or _points_shape(shapes[0], n):
             value = value[0]
-    if _shape(value) == (3, 4) and n != 3:
+    if _shape(value) == (3, 4) and n not in (3, 4):
         raise Malformed(f"expected the {n} x 3 points, got a 3 x 4 matrix (a camera such as M2 or C2?)")
-    return read_array(value, (n, 3), "the 3D points")
+    return _dehomogenised(value, n)
 
 
 def read_points_pts2(value, n: int) -> tuple[np.ndarray, object]:

@@ -17,8 +17,8 @@ only the hidden files asked for; ``_same``; ``parallel.fork_map``): a hidden fil
 group of programs whose differences from each other do not reach its judged functions, and
 shared by the group (see "sharing work"); each program run under one of the sweep's secrets in turn
 (every secret with ``HW4_SWEEP_ALL=1``); the self-checks are shared the same way; the CLI
-grades three programs (util, a helper.refineF switched off through the module, a per-part zip
-writing result/) under one secret, with the sweep's settings.
+grades four programs (util, a helper.refineF switched off through the module, a per-part zip
+writing result/, an eightpoint saving to ../data/) under one secret, with the sweep's settings.
 """
 
 from __future__ import annotations
@@ -52,9 +52,10 @@ SPREAD = 6
 CLI_SECRET = SECRETS[0]
 # A few programs through the CLI: the course's helpers as util (given by the sandbox, refineF through
 # the module), a transposed F polished by helper.refineF (the sandbox must switch it off through the
-# module), and a per-part zip whose compute3D_pts writes result/ (the sandbox's scratch has it).
+# module), a per-part zip whose compute3D_pts writes result/ (the sandbox's scratch has it), and an
+# eightpoint saving to ../data/ (so does it).
 CLI_PROGRAMS = ("y2023_submission_py_util_full", "y2019_submission_py_transposed_helper_refine_loses_Q2",
-                "y2023_per_part_nine_vector_refine_full")
+                "y2023_per_part_nine_vector_refine_full", "y2020_submission_py_saves_to_data_full")
 from core.paths import KIT_ROOT
 
 
@@ -101,12 +102,14 @@ _LOADED: dict = {}
 
 @pytest.fixture(scope="module")
 def corpus_here(tmp_path_factory):
-    """name -> Loaded; the test runs in a scratch folder with results/, as the sandbox (result/ is
-    left out: the self-checks make it when a function writes there, as the sandbox has it)."""
+    """name -> Loaded; the test runs in a scratch folder with results/ and data/ and their ../
+    twins, as the sandbox (result/ is left out: the self-checks make it when a function writes
+    there, as the sandbox has it)."""
     folder = tmp_path_factory.mktemp("realstyles")
     scratch = folder / "work"
-    (scratch / "results").mkdir(parents=True)
-    (folder / "results").mkdir()
+    for name in ("results", "data"):
+        (scratch / name).mkdir(parents=True)
+        (folder / name).mkdir()
     before = os.getcwd()
     os.chdir(scratch)
     try:

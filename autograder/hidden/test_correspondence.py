@@ -253,12 +253,27 @@ def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
     pipe_v = None if w is None else _structure(w, c)
     if direct_v is not None and (pipe_v is None or direct_v.fraction >= pipe_v.fraction):
         return TemplePoints(direct_v, (f"graded through your {direct_sig}, called with {direct_how}",), direct_pts2)
+    # Which function gave no result, and why: a point without one is otherwise only "no result".
+    failed = _matcher_failures(matched[c])
     if pipe_v is not None:
         why = f" (compute3D_pts: {direct_problem})" if direct_problem else \
             " (it placed more points right than your compute3D_pts)"
-        return TemplePoints(pipe_v, ("graded through your epipolarCorrespondence and triangulate" + why,))
+        return TemplePoints(pipe_v, ("graded through your epipolarCorrespondence and triangulate" + why, *failed,
+                                     *([pipe_problem] if pipe_problem.startswith("triangulate: ") else [])))
     return TemplePoints(None, (f"compute3D_pts: {direct_problem or 'no result'}",
-                               f"epipolarCorrespondence + triangulate: {pipe_problem or 'no result'}"))
+                               f"epipolarCorrespondence + triangulate: {pipe_problem or 'no result'}", *failed))
+
+
+def _matcher_failures(m: Matched) -> list[str]:
+    """Lines saying where the matcher gave no result on Q4.2's points: how many calls failed (the
+    first one's exception, its place and the call) and how many were not reached in time."""
+    lines = []
+    if m.errors:
+        lines.append(f"{_MATCH} failed on {m.errors} of {len(m.pts2)} points"
+                     + (f", first: {m.first_error}" if m.first_error else ""))
+    if m.reached < len(m.pts2) and not m.problem:
+        lines.append(f"{_MATCH}: only {m.reached} of {len(m.pts2)} points were matched in the time allowed")
+    return lines
 
 
 @pytest.mark.points(4, question="Q4.2", name="3D points of the temple")

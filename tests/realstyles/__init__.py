@@ -40,6 +40,9 @@ y2021_submission_py_own_helper_full                        -                the 
 y2023_submission_py_util_full                              -                Fall 2023's helpers were util.py: util.refineF
 y2025_notebook_default_arg_refine_full                     -                refineF bound as eightpoint's default argument
 y2025_notebook_svd_only_full                               -                no refineF ("may"), SVD rank 2, F / norm
+y2022_per_part_compute3D_mapping_full                      -                temple_pts1['x1'], ['y1']: templeCoords' N x 1 columns
+y2025_notebook_compute3D_homogeneous_full                  -                compute3D_pts returns the points homogeneous (N x 4)
+y2020_submission_py_saves_to_data_full                     -                eightpoint saves F to ../data/q2_1.npz
 y2019_submission_py_transposed_helper_refine_loses_Q2      Q2               FAQ: a transposed F polished by refineF
 y2024_per_part_transposed_refine_inside_loses_Q2           Q2               the same, refineF imported inside eightpoint
 y2025_notebook_transposed_refine_default_arg_loses_Q2      Q2               the same, refineF a default argument
@@ -145,6 +148,15 @@ PROGRAMS: dict[str, Program] = {
     "y2025_notebook_svd_only_full": Program(
         "notebook", _pieces(eightpoint=s.EP_SVD_ONLY, epipolarCorrespondence=s.EC_WHOLE_LINE_UINT8, **_NB),
         why="refineF is optional ('you may find it helpful')"),
+    "y2022_per_part_compute3D_mapping_full": Program(
+        "per_part", _pieces(compute3D_pts=s.C3D_FIVE_MAPPING),
+        why="compute3D_pts(temple_pts1, ...) indexes temple_pts1['x1'] as the course's templeCoords.npz"),
+    "y2025_notebook_compute3D_homogeneous_full": Program(
+        "notebook", _pieces(**dict(_NB, compute3D_pts=s.C3D_SEVEN_HOMOGENEOUS)),
+        why="the 3D points returned homogeneous (N x 4, last column 1) are the same points"),
+    "y2020_submission_py_saves_to_data_full": Program(
+        "submission_py", _pieces(eightpoint=s.EP_SAVES_TO_DATA, essentialMatrix=s.ESS_PLAIN, **_OLD),
+        why="eightpoint saves its F to ../data/q2_1.npz as the course's drivers did: F is still right"),
     # mistakes
     "y2019_submission_py_transposed_helper_refine_loses_Q2": Program(
         "submission_py", _pieces(eightpoint=s.EP_TRANSPOSED_HELPER_REFINE, **_OLD), _Q2,

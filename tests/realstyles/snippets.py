@@ -81,6 +81,15 @@ EP_SVD_ONLY = _ep('''\
     return F / np.linalg.norm(F)
 ''')
 
+# 2018-21 drivers ran from python/ and saved beside the data: np.savez('../data/q2_1.npz', ...).
+EP_SAVES_TO_DATA = _ep('''\
+    F = _singularize(Vt[-1].reshape(3, 3))
+    F = helper.refineF(F, p1, p2)
+    F = T.T.dot(F).dot(T)
+    np.savez('../data/q2_1.npz', F=F, M=M)
+    return F
+''')
+
 # --- Q2 mistakes
 # The transposed design matrix, polished by helper.refineF (2018-21 style): FAQ's 94 / 1927.
 EP_TRANSPOSED_HELPER_REFINE = _ep('''\
@@ -338,6 +347,20 @@ def compute3D_pts(temple_pts1, intrinsics, F, im1, im2):
     return M2
 '''
 
+# 2022-24: temple_pts1 is what np.load('templeCoords.npz') gives, indexed by name: x1 and y1 are
+# N x 1 columns (an N x 2 array raises IndexError here; the course called it with the mapping).
+C3D_FIVE_MAPPING = '''\
+def compute3D_pts(temple_pts1, intrinsics, F, im1, im2):
+    x1 = temple_pts1['x1']
+    y1 = temple_pts1['y1']
+    pts1 = np.hstack((x1, y1))
+    pts2 = np.zeros(pts1.shape)
+    for i in range(x1.shape[0]):
+        pts2[i] = epipolarCorrespondence(im1, im2, F, x1[i, 0], y1[i, 0])
+    M2, C2, P = findM2(F, pts1, pts2, intrinsics)
+    return P
+'''
+
 # The kit's signature (a single notebook): returns w and the matches.
 C3D_SEVEN = '''\
 def compute3D_pts(im1, im2, F, x1, y1, C1, C2):
@@ -347,6 +370,18 @@ def compute3D_pts(im1, im2, F, x1, y1, C1, C2):
     pts1 = np.column_stack([x1, y1]).astype(float)
     w, err = triangulate(C1, pts1, C2, pts2)
     return w, pts2
+'''
+
+# The kit's signature, the points returned homogeneous (N x 4, last column 1), as triangulate's
+# SVD gives them.
+C3D_SEVEN_HOMOGENEOUS = '''\
+def compute3D_pts(im1, im2, F, x1, y1, C1, C2):
+    pts1 = np.hstack([np.reshape(x1, (-1, 1)), np.reshape(y1, (-1, 1))]).astype(float)
+    pts2 = np.zeros_like(pts1)
+    for i, (a, b) in enumerate(pts1):
+        pts2[i] = epipolarCorrespondence(im1, im2, F, int(a), int(b))
+    w, err = triangulate(C1, pts1, C2, pts2)
+    return np.hstack([w, np.ones((len(w), 1))])
 '''
 
 # --------------------------------------------------------------------------- Q5
