@@ -446,6 +446,19 @@ def test_no_staff_path_in_the_namespaces_command_line_or_mount_table(tmp_path):
     assert str(staff) in hidden and str(staff) not in mounts and "grades-of-section-B" not in mounts
 
 
+def test_a_whole_map_of_large_returns_is_bounded_in_the_grader(box):
+    """Each value may be large, but the values of one request add up to at most ``result_bytes``
+    in the grader's process: a matcher returning 40 MB per point must not fill the worker."""
+    src = "import numpy as np\ndef big(k):\n    return np.full(5 * 2**20, float(k))\n"
+    with box.session(src, budget=120) as session:
+        got = session.map("big", [((k,), {}) for k in range(4)], seconds=60)
+    limit = box.runtime.limits.result_bytes
+    assert 40 * 2**20 < limit < 80 * 2**20   # one value fits, two do not
+    assert got[0].status == "ok" and got[0].value.nbytes == 40 * 2**20
+    assert [o.status for o in got[1:]] == ["malformed"] * 3
+    assert all(o.value is None and "add up to more than" in o.message for o in got[1:])
+
+
 def test_environment_is_minimal_and_the_workdir_is_fresh(box, monkeypatch):
     monkeypatch.setenv("HW4_GRADER_SECRET", "token")
     src = ("import os\ndef env():\n    before = sorted(os.listdir('.'))\n"

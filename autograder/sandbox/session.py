@@ -321,7 +321,14 @@ class Session:
                 if type(index) is not int or not 0 <= index < n or status not in _ITEM_STATUSES:
                     raise _ProtocolError("a result names an unknown input or status")
                 if index not in found:  # the first word on an input is final
-                    found[index] = self._outcome(rec, request["clock"], "swap" in request)
+                    outcome = self._outcome(rec, request["clock"], "swap" in request)
+                    # The whole request's values stay in this process: bounded together, not only each.
+                    state["bytes"] = state.get("bytes", 0) + _size_of(outcome.value)
+                    if state["bytes"] > self.rt.limits.result_bytes:
+                        outcome = CallOutcome("malformed", seconds=outcome.seconds, message=(
+                            f"the values returned in this call add up to more than {self.rt.limits.result_bytes} "
+                            "bytes"))
+                    found[index] = outcome
                     if rec.get("exhausted") is True:
                         request["exhausted"] = True
                 state["current"] = max(state["current"], index + 1)
@@ -546,6 +553,19 @@ class Session:
         limits = self.rt.limits
         return (f"the code wrote {size / 2**20:.0f} MB in {count} files and folders, past the sandbox's disk quota "
                 f"({limits.tmp_bytes / 2**20:.0f} MB or {limits.tmp_files} files), and was stopped")
+
+
+def _size_of(value) -> int:
+    """Bytes a decoded value (``core.wire``: arrays, numbers, text, lists, dicts) holds, roughly."""
+    if hasattr(value, "nbytes"):
+        return int(value.nbytes)
+    if isinstance(value, (list, tuple)):
+        return 8 * len(value) + sum(_size_of(v) for v in value)
+    if isinstance(value, dict):
+        return sum(_size_of(k) + _size_of(v) for k, v in value.items())
+    if isinstance(value, (str, bytes)):
+        return len(value)
+    return 8
 
 
 def _parse(line: bytes) -> dict:
