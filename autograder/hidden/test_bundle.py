@@ -64,7 +64,7 @@ def test_rodriguesResidual_returns_the_handouts_residuals(student, bundle, score
         right += v.passed
         lines.append(f"input {k}: {v.sentence}")
         mistakes += v.mistakes
-    score.grade(right / len(inputs), lines, mistakes)
+    score.grade(right / len(cases), lines, mistakes)
 
 
 @pytest.mark.parametrize("k", [
