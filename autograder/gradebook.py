@@ -27,7 +27,9 @@ class BatchRecord:
     configuration_key: ``autograder.config.configuration_key`` of the grading (None: not recorded);
     isolation: the sandbox level it ran at (None when no sandbox ran); removed: (entries, bytes) its
     code left in the machine's shared temporary folders, removed by the grader; over_quota: what
-    went past the sandbox's disk quota (both for staff, from ``staff_of``).
+    went past the sandbox's disk quota; not_removed: what it left that could not be removed
+    (``"<path>: <why>"``); survived: what of its uid outlived the sweep (all for staff, from
+    ``staff_of``).
     """
 
     name: str
@@ -42,6 +44,8 @@ class BatchRecord:
     isolation: str | None = None
     removed: tuple[int, int] = (0, 0)
     over_quota: tuple[str, ...] = ()
+    not_removed: tuple[str, ...] = ()
+    survived: tuple[str, ...] = ()
 
 
 def write_grades_csv(path: Path, records: Sequence) -> Path:
@@ -64,12 +68,17 @@ def read_state(folder: Path) -> dict | None:
 
 
 def staff_of(staff) -> dict:
-    """The BatchRecord fields of a submission's staff notes: ``removed`` and ``over_quota``."""
+    """The BatchRecord fields of a submission's staff notes: ``removed`` (with its ``not_removed``),
+    ``over_quota`` and ``survived``."""
     staff = staff if isinstance(staff, dict) else {}
     removed = staff.get("removed") if isinstance(staff.get("removed"), dict) else {}
-    quota = staff.get("over_quota") if isinstance(staff.get("over_quota"), list) else []
+
+    def lines(value) -> tuple[str, ...]:
+        return tuple(str(x) for x in value) if isinstance(value, list) else ()
+
     return {"removed": (int(removed.get("entries", 0) or 0), int(removed.get("bytes", 0) or 0)),
-            "over_quota": tuple(str(x) for x in quota)}
+            "over_quota": lines(staff.get("over_quota")), "not_removed": lines(removed.get("not_removed")),
+            "survived": lines(staff.get("survived"))}
 
 
 def record_of(folder: Path, state: dict) -> BatchRecord:
@@ -143,6 +152,16 @@ def write_summary(path: Path, records: Sequence, configuration: dict, *, cancell
                   "grader", ""]
         lines += [f"- {for_markdown(r.name, newlines=False)}: {r.removed[0]} files and folders, "
                   f"{r.removed[1] / 2**20:.1f} MB" for r in left]
+    stuck = [r for r in records if r.not_removed]
+    if stuck:
+        lines += ["", "## Left by the code and NOT removed (remove by hand)", ""]
+        lines += [f"- {for_markdown(r.name, newlines=False)}: {for_markdown(line, newlines=False)}"
+                  for r in stuck for line in r.not_removed[:10]]
+    survived = [r for r in records if r.survived]
+    if survived:
+        lines += ["", "## Processes that outlived the sandbox's sweep (their uid was not used again)", ""]
+        lines += [f"- {for_markdown(r.name, newlines=False)}: {for_markdown(line, newlines=False)}"
+                  for r in survived for line in r.survived[:5]]
     if cancelled:
         lines += ["", "## Cancelled (graded again on resume)", ""] + [f"- {for_markdown(n, newlines=False)}"
                                                                        for n in cancelled]

@@ -119,7 +119,9 @@ def grade_gradescope(root: str | Path = "/autograder") -> SubmissionResult:
     data["extra_data"]["timing"] = timing  # staff only: extra_data is not shown to students
     if "canary" in staff:
         data["extra_data"]["canary"] = staff["canary"]
-    for key in ("removed", "over_quota"):  # what the code left in shared temporary folders; its disk quota
+    # What the code left in shared temporary folders (and could not be removed); its disk quota;
+    # what of its uid outlived the sweep.
+    for key in ("removed", "over_quota", "survived"):
         if staff.get(key):
             data["extra_data"][key] = staff[key]
     from core.text import write_atomic

@@ -251,9 +251,9 @@ class GradingRun:
 
         Thread-safe: concurrent calls grade in sandboxes and workers of their own.  ``staff``
         (optional dict) receives what only staff may see: ``log`` (notes, tracebacks),
-        ``stdout``, ``stderr``, ``spawns``, ``swept``, ``removed``, ``over_quota``.  Never raises
-        for what the submission contains or does (an unreadable one is a failed result);
-        RuntimeError when the grading process itself broke.
+        ``stdout``, ``stderr``, ``spawns``, ``swept``, ``removed`` (with ``not_removed``), ``over_quota``,
+        ``survived``.  Never raises for what the submission contains or does (an unreadable one is
+        a failed result); RuntimeError when the grading process itself broke.
         """
         if self._closed:
             raise RuntimeError("grade: this grading run is closed")

@@ -648,8 +648,9 @@ def pytest_sessionfinish(session, exitstatus):
     if s is not None:
         info = s.info
         staff.update(stdout=info.stdout[:_OUTPUT_KEPT], stderr=info.stderr[:_OUTPUT_KEPT], spawns=info.spawns,
-                     swept=info.swept, removed={"entries": info.removed[0], "bytes": info.removed[1]},
-                     over_quota=list(info.over_quota))
+                     swept=info.swept, removed={"entries": info.removed[0], "bytes": info.removed[1],
+                                                "not_removed": list(info.not_removed)},
+                     over_quota=list(info.over_quota), survived=list(info.survived))
     text = json.dumps({"result": result.to_dict(), "staff": staff, "pictures": config._hw4.get("pictures", {})},
                       allow_nan=False, default=str)
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)

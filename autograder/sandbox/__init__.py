@@ -50,9 +50,15 @@ variables, what one request changes in the child undone before the next (``child
 open files, no core files; ``script.py``), wall-clock limits per call and per session, and
 bounded reads of stdout, stderr and results.
 
+What a child started never outlives it: after each child every process of its uid is killed,
+counted by thread (a process whose leader thread exited shows as a zombie while its other threads
+run), whatever session it made; a uid something still runs as after that sweep is not given to
+any later child (the session takes a fresh one and tells staff, ``SessionInfo.survived``).
+
 Modules: ``model`` (limits, isolation, outcomes), ``uids``, ``levels`` (probing), ``script``
 (argv, environment, rlimits), ``session`` (the protocol's grader side), ``child`` (its child side),
-``leftovers`` (the grader's temporary folders).
+``leftovers`` (the grader's temporary folders), ``tree`` (folders the code could write into,
+measured and removed without recursion; what cannot be removed is named for staff, never raised).
 """
 
 from __future__ import annotations
@@ -69,6 +75,7 @@ from pathlib import Path
 
 from core.paths import KIT_ROOT
 from core.shipping import NEVER_TO_STUDENTS, SANDBOX_PACKAGES, SANDBOX_WITHHELD
+from core.untrusted import for_terminal
 
 from . import leftovers, levels
 from .deny import SANDBOX_GID
@@ -135,7 +142,10 @@ class Sandbox:
         self.runtime: Runtime | None = None
         # Every channel makes its Sandbox before grading: the time to remove what graders killed
         # with SIGKILL left behind (hidden inputs, answer keys, scratch; leftovers.py).
-        leftovers.sweep()
+        # What cannot be removed is said and left: it must not stop this grader, nor every later one.
+        left: list[str] = []
+        leftovers.sweep(failed=left)
+        _warn_left(left, "a dead grader's folders")
         # Traversable, not listable: the lib folder must be reachable by the sandbox's uid.
         self._base, self._base_fd = leftovers.owned_folder("hw4-sandbox-", mode=0o711)
         try:
@@ -183,7 +193,7 @@ class Sandbox:
         """Remove the sandbox's files and free its uid (when this process made it)."""
         if not self._owner:
             return
-        leftovers.release(self._base, self._base_fd)
+        _warn_left(leftovers.release(self._base, self._base_fd), "the sandbox's folder")
         self._base_fd = None
         release_uid(self.runtime.uid if self.runtime else None, self._uid_fd)
         self._uid_fd = None
@@ -209,6 +219,13 @@ class Sandbox:
         json.dumps(payload)  # a grader bug if the units are not JSON
         return Session(self.runtime, self.isolation, payload, load_timeout=load_timeout, budget=budget,
                        scratch=self._base)
+
+
+def _warn_left(failed: Sequence[str], what: str) -> None:
+    """Tell staff (the grader's stderr) what of ``what`` could not be removed; never raises."""
+    if failed:
+        lines = "".join(f"\n  {for_terminal(line)}" for line in failed)
+        print(f"warning: could not remove all of {what} (left in place):{lines}", file=sys.stderr)
 
 
 def _build_lib(lib: Path, kit_root: Path, packages: Sequence[str]) -> None:

@@ -15,6 +15,11 @@ removes a folder whose owner is alive, a folder of another user, anything that i
 folder (a symlink of that name is left, and not followed), nor folders named otherwise (those of
 graders older than this module included).
 Every channel sweeps when it makes its Sandbox (``Sandbox.__init__``), before grading.
+
+Both remove with ``tree.remove`` (no recursion, links never followed, any depth): a folder student
+code filled with a tree thousands of folders deep is removed like any other, and what cannot be
+removed is returned for staff, never raised (a sweep that raised would stop every later grader
+on the machine at its start).
 """
 
 from __future__ import annotations
@@ -22,11 +27,12 @@ from __future__ import annotations
 import fcntl
 import os
 import re
-import shutil
 import stat
 import tempfile
 import time
 from pathlib import Path
+
+from . import tree
 
 __all__ = ["PREFIXES", "owned_folder", "release", "sweep"]
 
@@ -59,20 +65,22 @@ def owned_folder(prefix: str, *, mode: int = 0o700) -> tuple[Path, int]:
             raise
         os.chmod(folder, mode)
     except BaseException:
-        shutil.rmtree(folder, ignore_errors=True)
+        tree.remove(folder)
         raise
     return folder, fd
 
 
-def release(folder: Path | None, fd: int | None) -> None:
-    """Remove ``folder`` and then close its lock ``fd`` (either may be None)."""
-    if folder is not None:
-        shutil.rmtree(folder, ignore_errors=True)
+def release(folder: Path | None, fd: int | None) -> list[str]:
+    """Remove ``folder`` and then close its lock ``fd`` (either may be None); return what could not
+    be removed (``"<path>: <why>"``, for staff; the lock is closed all the same, and a later sweep
+    tries again)."""
+    failed = tree.remove(folder).named() if folder is not None else []
     if fd is not None:
         try:
             os.close(fd)
         except OSError:
             pass
+    return failed
 
 
 def _pid_running(pid: int) -> bool:
@@ -104,9 +112,10 @@ def _owner_alive(folder: Path, pid: int, made: float) -> bool:
     return False
 
 
-def sweep(root: str | os.PathLike | None = None) -> list[Path]:
+def sweep(root: str | os.PathLike | None = None, *, failed: list[str] | None = None) -> list[Path]:
     """Remove the grader folders in ``root`` (default: the temporary directory) that belong to
-    this user and whose owner died; return them."""
+    this user and whose owner died; return them.  ``failed`` (a list) receives ``"<path>: <why>"``
+    for what could not be removed (the folder stays, and the next sweep tries again)."""
     root = Path(root) if root is not None else Path(tempfile.gettempdir())
     me = os.geteuid()
     removed: list[Path] = []
@@ -127,8 +136,10 @@ def sweep(root: str | os.PathLike | None = None) -> list[Path]:
         path = Path(entry.path)
         if _owner_alive(path, int(found.group(2)), st.st_mtime):
             continue
-        # rmtree refuses a symlink put in its place meanwhile and never follows one inside.
-        shutil.rmtree(path, ignore_errors=True)
+        # tree.remove refuses a symlink put in its place meanwhile and never follows one inside.
+        left = tree.remove(path, owner=me).named()
+        if failed is not None:
+            failed.extend(left)
         if not os.path.lexists(path):
             removed.append(path)
     return removed

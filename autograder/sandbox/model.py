@@ -154,7 +154,10 @@ class SessionInfo:
     had to kill (0 when the namespace already ended them all); seconds: wall-clock time;
     removed: (entries, bytes) the code's uid had left in the machine's shared temporary folders
     (/tmp, /var/tmp, /dev/shm, /run/lock), removed after each child; over_quota: what went past
-    the disk quota (``ResourceLimits.tmp_bytes``, ``tmp_files``), one line per time.
+    the disk quota (``ResourceLimits.tmp_bytes``, ``tmp_files``), one line per time; not_removed:
+    ``"<path>: <why>"`` of what the code left that could not be removed (its scratch folder's
+    included); survived: what of the code's uid still ran after the sweep, and the fresh uid the
+    later code of the session (or the next submission's) ran as instead.
     """
 
     load_errors: tuple[tuple[str, str], ...]
@@ -167,3 +170,5 @@ class SessionInfo:
     swept: int
     removed: tuple[int, int] = (0, 0)
     over_quota: tuple[str, ...] = ()
+    not_removed: tuple[str, ...] = ()
+    survived: tuple[str, ...] = ()

@@ -19,6 +19,7 @@ child's stdout and stderr are kept (bounded) for staff and never judged.
 
 from __future__ import annotations
 
+import dataclasses
 import fcntl
 import json
 import math
@@ -34,10 +35,11 @@ from pathlib import Path
 
 from core import wire
 
-from . import helpers, script
+from . import helpers, script, tree
 from .model import CLOCKS, MAX_REFINE_CALLS, CallOutcome, Isolation, SessionInfo
 from .script import Runtime
-from .uids import SHARED_TMP_DIRS, files_of_uid, remove_files_of_uid, sweep_uid, usage_of
+from .uids import (SHARED_TMP_DIRS, files_of_uid, held_open_files, live_pids_of_uid, pick_uid, release_uid,
+                   remove_files_of_uid, sweep_uid, usage_of)
 
 __all__ = ["QUOTA_CHECK", "Session"]
 
@@ -128,12 +130,16 @@ class Session:
         self.spawns = 0
         self.swept = 0
         self.removed = [0, 0]                      # entries, bytes left in the shared temporary folders
+        self.not_removed: list[str] = []           # what the code left that could not be removed
+        self.survived: list[str] = []              # what of its uid outlived a sweep (for staff)
+        self._uid_fd: int | None = None            # the lock of a fresh uid this session took
         self.over_quota: list[str] = []            # what went past the disk quota
         self.disk_stopped: dict[str, str] = {}     # function -> why it is not called again
         self._last_use = (0, 0)                    # the child's disk use at the last check
         self.leak_restarts = 0                     # children replaced for what a call left behind
         self.calls = 0
         self.closed = False
+        self._avoid_used_uid()
 
     # -- public --------------------------------------------------------------------------------
 
@@ -213,13 +219,19 @@ class Session:
     def info(self) -> SessionInfo:
         return SessionInfo(tuple(self.load_errors), tuple(self.defined), self.out.text(), self.err.text(),
                            self.isolation, time.monotonic() - self.started, self.spawns, self.swept,
-                           (self.removed[0], self.removed[1]), tuple(self.over_quota))
+                           (self.removed[0], self.removed[1]), tuple(self.over_quota), tuple(self.not_removed),
+                           tuple(self.survived))
 
     def close(self) -> SessionInfo:
         """Stop the child (its whole process tree) and return what happened."""
         if not self.closed:
             self.closed = True
-            self._stop(gently=True)
+            try:
+                self._stop(gently=True)
+            finally:
+                if self._uid_fd is not None:
+                    release_uid(self.rt.uid, self._uid_fd)
+                    self._uid_fd = None
         return self.info
 
     def __enter__(self) -> Session:  # noqa: PYI034
@@ -512,15 +524,42 @@ class Session:
                     pass
             if self.rt.uid is not None:
                 self.swept += len(sweep_uid(self.rt.uid))
-            shutil.rmtree(child.jobdir, ignore_errors=True)
+            # Removed without recursion: a tree thousands of folders deep must not stop the class.
+            self.not_removed.extend(tree.remove(child.jobdir).named())
             if self.rt.uid is not None:
                 # Its processes are gone and its scratch folder with them: what its uid left in /tmp,
                 # /var/tmp, /dev/shm... goes too (found by owner, links not followed), counted for staff.
                 # Behind a private /tmp only /run/lock is shared: walking the host's /tmp (every
                 # folder in it that others may enter) would cost each session a second or more.
-                n, size = remove_files_of_uid(self.rt.uid, self.rt.shared_tmp_dirs())
+                n, size = remove_files_of_uid(self.rt.uid, self.rt.shared_tmp_dirs(), failed=self.not_removed)
                 self.removed[0] += n
                 self.removed[1] += size
+                self._avoid_used_uid()
+
+    def _avoid_used_uid(self) -> None:
+        """Take a fresh uid for the next child when something of this one still runs.
+
+        Whatever outlived the sweep (a process the kill did not end in its budget) could wait for
+        the next child of its uid and read or kill it: the session's later children, and the next
+        submission's (whose Sandbox still names the old uid), run under another uid, reserved
+        until the session closes; ``pick_uid`` never hands out a uid while anything of it runs."""
+        if self.rt.uid is None:
+            return
+        left = live_pids_of_uid(self.rt.uid)
+        if not left:
+            return
+        old = self.rt.uid
+        what = f"uid {old}: {len(left)} processes outlived the sweep (pids {', '.join(map(str, left[:10]))})"
+        try:
+            uid, fd = pick_uid()
+        except RuntimeError as exc:
+            self.survived.append(f"{what}, and no fresh uid was free ({exc})")
+            return
+        if self._uid_fd is not None:
+            release_uid(old, self._uid_fd)
+        self._uid_fd = fd
+        self.rt = dataclasses.replace(self.rt, uid=uid)
+        self.survived.append(f"{what}; this session's later processes run as uid {uid}")
 
     # -- the disk quota ------------------------------------------------------------------------
 
@@ -534,6 +573,11 @@ class Session:
         others, whose top it may not write into at the ``uid`` level)."""
         count, size = usage_of(self.child.jobdir)
         if self.rt.uid is not None:
+            # Files unlinked while open (or mapped) take their room until the process ends, and no
+            # folder shows them: counted by what the uid's processes hold, each file once.
+            n, b = held_open_files(self.rt.uid)
+            count += n
+            size += b
             for roots, deep in ((("/dev/shm",), True), (tuple(d for d in SHARED_TMP_DIRS if d != "/dev/shm"), False)):
                 for _, _, n, b in files_of_uid(self.rt.uid, roots, deep=deep):
                     count += n
