@@ -158,7 +158,7 @@ PROGRAM = textwrap.dedent("""\
         out["left_after_attack"] = live_tasks(uid)
         out["tops_left"] = [t for t in out["attack"]["tops"] if os.path.lexists(t)]
         with box.session(key, budget=60) as s:
-            calls = [s.call("eightpoint", pts1, pts2, 640.0, refine=False, seconds=20), s.call("pause", 1.5, seconds=20),
+            calls = [s.call("eightpoint", pts1, pts2, 640.0, refine=False, seconds=20), s.call("pause", 0.5, seconds=20),
                      s.call("eightpoint", pts1, pts2, 640.0, refine=False, seconds=20)]
         out["key"] = [c.status + ("" if c.status == "ok" else ": " + c.message) for c in calls]
         F = [np.asarray(c.value) for c in (calls[0], calls[2]) if c.status == "ok"]
@@ -213,7 +213,7 @@ HOLDS = textwrap.dedent("""\
         os.unlink(path)  # no folder shows it; it fills /dev/shm until the process ends
         os.write(fd, b"x" * (mb << 20))
         kept.append(fd)
-        time.sleep(3)
+        time.sleep(1.5)
         return "not stopped"
     def maps(mb):
         path = f"/dev/shm/hw4-mapped-{os.getpid()}"
@@ -224,21 +224,26 @@ HOLDS = textwrap.dedent("""\
         os.unlink(path)  # nor any descriptor: only the mapping keeps it
         m.write(b"x" * (mb << 20))
         kept.append(m)
-        time.sleep(3)
+        time.sleep(1.5)
         return "not stopped"
     """)
 
 
-def test_files_unlinked_while_open_or_mapped_in_dev_shm_count_for_the_quota():
+@pytest.fixture(scope="module")
+def box():
+    """A namespaces-level sandbox without a private /tmp: the disk quota applies (as at the uid
+    level; 8 MB here), and /dev/shm is the machine's."""
     from autograder.sandbox import ResourceLimits, Sandbox
 
-    limits = ResourceLimits(tmp_bytes=16 * 2**20)
-    # Without a private /tmp the quota applies (as at the uid level), and /dev/shm is the machine's.
-    with Sandbox(isolation="namespaces", private_tmp=False, limits=limits) as box:
-        with box.session(HOLDS, budget=60) as s:
-            held = s.call("holds_open", 40, seconds=20)
-            mapped = s.call("maps", 40, seconds=20)
-        info = s.info
+    with Sandbox(isolation="namespaces", private_tmp=False, limits=ResourceLimits(tmp_bytes=8 * 2**20)) as made:
+        yield made
+
+
+def test_files_unlinked_while_open_or_mapped_in_dev_shm_count_for_the_quota(box):
+    with box.session(HOLDS, budget=60) as s:
+        held = s.call("holds_open", 24, seconds=20)
+        mapped = s.call("maps", 24, seconds=20)
+    info = s.info
     for outcome in (held, mapped):
         assert outcome.status == "crashed" and "disk quota" in outcome.message, outcome
     assert [line.split(":")[0] for line in info.over_quota] == ["holds_open", "maps"], info.over_quota
@@ -246,24 +251,21 @@ def test_files_unlinked_while_open_or_mapped_in_dev_shm_count_for_the_quota():
     assert info.survived == ()
 
 
-def test_a_uid_something_still_runs_as_is_not_handed_to_the_next_session():
+def test_a_uid_something_still_runs_as_is_not_handed_to_the_next_session(box):
     # What outlives the sweep must not meet the next child of its uid: the next session takes a
     # fresh uid, reserved until it closes, and says so to staff.
-    from autograder.sandbox import Sandbox
-
-    with Sandbox(isolation="namespaces") as box:
-        old = box.isolation.uid
-        # A process of the sandbox's uid that no sweep of this test ends (as if SIGKILL had not
-        # worked within the sweep's budget).
-        stray = subprocess.Popen(["sleep", "60"], user=old, group=old, extra_groups=[], start_new_session=True)
-        try:
-            with box.session("import os\ndef uid():\n    return os.getuid()\n", budget=60) as s:
-                first = s.call("uid", seconds=20).value
-                second = s.call("uid", seconds=20).value
-            info = s.info
-        finally:
-            stray.kill()
-            stray.wait()
+    old = box.isolation.uid
+    # A process of the sandbox's uid that no sweep of this test ends (as if SIGKILL had not worked
+    # within the sweep's budget).
+    stray = subprocess.Popen(["sleep", "60"], user=old, group=old, extra_groups=[], start_new_session=True)
+    try:
+        with box.session("import os\ndef uid():\n    return os.getuid()\n", budget=60) as s:
+            first = s.call("uid", seconds=20).value
+            second = s.call("uid", seconds=20).value
+        info = s.info
+    finally:
+        stray.kill()
+        stray.wait()
     assert first == second and first not in (old, 0, os.getuid()), (first, old)
     assert len(info.survived) == 1 and f"uid {old}: 1 processes" in info.survived[0]
     assert f"pids {stray.pid}" in info.survived[0] and f"run as uid {first}" in info.survived[0]
