@@ -31,7 +31,8 @@ Isolation, strongest available first (``Sandbox.isolation`` says which was used;
     stay readable (the grader writes its own files owner-only).  No private /tmp either: the
     sandbox's group may only pass through /tmp, /var/tmp and /run/lock (``deny.traverse_only``),
     /dev/shm stays writable, every child's files there are removed after it (``uids``), and its
-    disk use is a quota the session checks while calls run.
+    disk use is a quota the session checks while calls run (files its processes hold open
+    or mapped after unlinking them included).
 ``basic`` (weak, only with ``allow_weak``)
     Resource limits, a new session killed as a group, the seccomp filter, and (as root) the
     dedicated uid plus the /proc sweep.  Hidden paths are NOT hidden: ``Isolation`` says so.
