@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import sys
 
 import pytest
 
@@ -97,8 +98,9 @@ def test_a_tree_5000_folders_deep_is_measured_and_removed_and_its_links_are_not_
     os.symlink(outside, "to_folder", dir_fd=fd)
     os.symlink(outside / "keep.bin", "to_file", dir_fd=fd)
     os.close(fd)
-    with pytest.raises(RecursionError):
-        list(os.walk(top))  # what the grader used before (Python 3.11)
+    if sys.version_info < (3, 12):  # os.walk is iterative from 3.12 on
+        with pytest.raises(RecursionError):
+            list(os.walk(top))  # what the grader used before
 
     used = tree.usage(top)
     assert used.failed == [] and used.failures == 0
@@ -175,7 +177,10 @@ def test_what_cannot_be_removed_is_named_not_raised_and_the_rest_goes(tmp_path):
 
 
 def _unlock(top, side: int) -> None:
-    fd = os.open(top, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fd = os.open(top, os.O_RDONLY | os.O_DIRECTORY)
+    except FileNotFoundError:
+        return
     try:
         for _ in range(side - 1):
             nxt = os.open("d", os.O_RDONLY | os.O_DIRECTORY, dir_fd=fd)
@@ -196,8 +201,9 @@ def test_a_dead_graders_folder_with_a_deep_tree_is_swept_without_raising(tmp_pat
     dead.mkdir()
     (dead / leftovers.OWNER_FILE).write_text("0\n")  # its lock is free: the owner is dead
     deep_tree(dead / "job1", 3000)
-    with pytest.raises(RecursionError):
-        shutil.rmtree(dead)  # what the sweep used before (Python 3.11)
+    if sys.version_info < (3, 12):
+        with pytest.raises(RecursionError):
+            shutil.rmtree(dead)  # what the sweep used before (it removed part of the tree, then raised)
     failed: list[str] = []
     assert leftovers.sweep(tmp_path, failed=failed) == [dead]
     assert failed == [] and not os.path.lexists(dead)
