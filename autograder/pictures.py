@@ -11,10 +11,15 @@ Never scored, never on hidden scenes.  The steps, each in the process allowed to
    refineF switched off (Q2's second call of eightpoint) is made in the child too, with the
    request's ``swap``; the child says how many times refineF was called in it, a count the
    session believes only as an int in a range (``CallOutcome.refineF_calls``), and the pictures
-   module decides from it, as in the self-check, whether that run is drawn.  The
-   question's calls share ``SECONDS`` (times the config's ``time_scale``).  The answer is plain
-   JSON: ``{"outputs": <wire>}`` or ``{"error": "figure not drawn: ..."}``; nothing raised there
-   reaches the grade.
+   module decides from it, as in the self-check, whether that run is drawn.  Each call is given
+   ``SECONDS`` of CPU time of the child (times the config's ``time_scale``; the session's ``clock``
+   "cpu", as the checks' limits are on Gradescope), so a busy machine does not cost a picture; the
+   question's calls stop being made once ``SECONDS`` times the session's ``wall_factor`` of
+   wall-clock time have passed (code that waits instead of computing).  Each proxy carries the
+   student's parameters as written (``signatures``, the checks' fixture; ``__signature__``), so
+   the pictures module calls another year's findM2 or compute3D_pts as the checks do
+   (``judging.conventions``).  The answer is plain JSON: ``{"outputs": <wire>}`` or ``{"error":
+   "figure not drawn: ..."}``; nothing raised there reaches the grade.
 2. ``drawn(question, record)``, in the same worker (the grader's own process, which never runs
    student code; a batch's ``--jobs`` workers draw in parallel): the outputs decoded again and
    drawn (``starter.checks.pictures.draw``, trusted, calls no student code) -> ``{"picture":
@@ -44,7 +49,7 @@ __all__ = ["LIMITS", "MAX_PNG", "NOT_DRAWN", "SECONDS", "OffRunFailed", "Picture
            "draw_all", "drawn", "figures_of", "finite_measures", "run_public"]
 
 NOT_DRAWN = "figure not drawn: "
-SECONDS = 10.0          # a question's calls together, in the checks' designed seconds (times time_scale)
+SECONDS = 10.0          # CPU seconds of one call of a picture (times time_scale)
 _MAX_NAMES = 32         # arrays per question
 _MAX_NAME = 64          # characters of an array's name
 _MAX_ELEMENTS = 1_000_000   # numbers in one array (8 MB as float64)
@@ -73,8 +78,14 @@ def contract():
 
 
 class _Proxies(Mapping):
-    """name -> a callable that calls the student's ``name`` in the sandbox within what is left of
-    the question's ``seconds``; the first failure is kept (a picture needs every call it makes).
+    """name -> a callable that calls the student's ``name`` in the sandbox; the first failure is
+    kept (a picture needs every call it makes).
+
+    Each call may use ``seconds`` of CPU time (times ``time_scale``); no call starts once the
+    question's wall-clock backstop (``seconds`` times the session's ``wall_factor``, times
+    ``time_scale``) has passed.  Each callable has the student's parameters as ``__signature__``
+    (``signatures(name)``, a ``judging.conventions.Signature`` or None), so that the pictures
+    module's ``judging.conventions`` calls it as the checks do.
 
     Each callable also has ``map(inputs, args=())``: the values of ``fn(*args, *a)`` for each
     tuple ``a`` of ``inputs``, in one sandbox request, so that common arguments (two images)
@@ -87,22 +98,37 @@ class _Proxies(Mapping):
     not kept: like the self-check, the picture only goes without that run (but one that ran out of
     time stops the function in the session, so the question's later calls fail, and the picture)."""
 
-    def __init__(self, student, names, seconds: float):
+    def __init__(self, student, names, seconds: float, signatures=None):
         self.student, self.names = student, tuple(names)
+        self.signatures = signatures
         self.scale = float(getattr(student, "time_scale", 1.0) or 1.0)
-        self.deadline = time.monotonic() + seconds * self.scale
+        self.session = getattr(student, "session", None)   # a sandbox session: its CPU clock is used
+        limits = getattr(getattr(self.session, "rt", None), "limits", None)
+        self.wall_factor = float(getattr(limits, "wall_factor", 3.0) or 3.0)
+        self.cpu = seconds * self.scale
+        self.deadline = time.monotonic() + self.cpu * self.wall_factor
         self.seconds = seconds
         self.failure: str | None = None
 
-    def _seconds_left(self) -> float:
-        """Wall-clock seconds left for the question's calls; PictureFailed once there are none."""
+    def _seconds(self) -> float:
+        """CPU seconds the next call may use; PictureFailed once the question's wall-clock backstop passed."""
         if self.failure is not None:
             raise PictureFailed(self.failure)
         left = self.deadline - time.monotonic()
         if left <= 0.05 * self.scale:
-            self.failure = f"the picture's calls took more than {self.seconds:g} s"
+            self.failure = (f"the picture's calls took more than {self.cpu * self.wall_factor:g} s of wall-clock "
+                            f"time together (each may use {self.cpu:g} s of CPU time)")
             raise PictureFailed(self.failure)
-        return left
+        return min(self.cpu, left)   # CPU seconds never exceed wall-clock ones
+
+    def _map(self, name: str, inputs, *, args=(), swap=None) -> list:
+        """The outcomes of one request, under the CPU clock when the student is a sandbox session."""
+        seconds = self._seconds()
+        if self.session is not None:
+            return self.session.map(name, inputs, args=tuple(args), seconds=seconds, budget=seconds, clock="cpu",
+                                    swap=swap)
+        return self.student.map(name, inputs, args=tuple(args), seconds=seconds, budget=seconds,
+                                **({"swap": swap} if swap else {}))
 
     def _value(self, name: str, outcome):
         if not outcome.ok:
@@ -112,25 +138,29 @@ class _Proxies(Mapping):
             raise PictureFailed(self.failure)
         return outcome.value
 
+    def _signature(self, name: str):
+        try:
+            return self.signatures(name) if self.signatures is not None else None
+        except Exception:  # noqa: BLE001 - an unknown signature is the kit's: called the kit's way
+            return None
+
     def __getitem__(self, name):
         if name not in self.names:
             raise KeyError(name)
+        from judging.conventions import with_signature
 
         def call(*args, **kwargs):
-            left = self._seconds_left() / self.scale   # Student.outcome multiplies by time_scale
-            return self._value(name, self.student.outcome(name, *args, seconds=left, **kwargs))
+            outcome, = self._map(name, [(tuple(args), dict(kwargs))])
+            return self._value(name, outcome)
 
         def each(inputs, args=()):
             """``[call(*args, *a) for a in inputs]`` in one request: ``args`` (the images) cross once."""
-            left = self._seconds_left()                # Student.map takes seconds as they are
-            outcomes = self.student.map(name, [(tuple(a), {}) for a in inputs], args=tuple(args), seconds=left,
-                                        budget=left)
+            outcomes = self._map(name, [(tuple(a), {}) for a in inputs], args=args)
             return [self._value(name, o) for o in outcomes]
 
         def switched_off(*args, **kwargs):
             """``(value, calls)`` of ``name(*args, **kwargs)`` with refineF switched off in the sandbox."""
-            left = self._seconds_left()                # Student.map takes seconds as they are
-            outcome, = self.student.map(name, [(args, kwargs)], seconds=left, budget=left, swap={"refineF": "off"})
+            outcome, = self._map(name, [(tuple(args), dict(kwargs))], swap={"refineF": "off"})
             if not outcome.ok:
                 raise OffRunFailed(name)
             # The session already read the child's count as an int in range, or None (not believed).
@@ -139,7 +169,7 @@ class _Proxies(Mapping):
         call.__name__ = call.__qualname__ = str(name)
         call.map = each
         call.refineF_switched_off = switched_off
-        return call
+        return with_signature(call, self._signature(name))
 
     def __iter__(self):
         return iter(self.names)
@@ -148,18 +178,20 @@ class _Proxies(Mapping):
         return len(self.names)
 
 
-def run_public(student, question: str, *, seconds: float = SECONDS, root=None) -> dict:
+def run_public(student, question: str, *, seconds: float = SECONDS, root=None, signatures=None) -> dict:
     """The picture step of one question, as JSON-able data for the worker's results file.
 
     ``student``: the plugin's ``Student`` (or ``LocalStudent``): anything with ``outcome(name,
     *args, seconds=...)`` and ``map(name, inputs, args=..., seconds=..., budget=..., swap=...)``
-    (``CallOutcome``s; with ``swap``, their ``refineF_calls``).  Returns
+    (``CallOutcome``s; with ``swap``, their ``refineF_calls``); a ``session`` attribute (the
+    plugin's ``Student``) is called directly, under the CPU clock.  ``signatures``: name -> the
+    student's ``judging.conventions.Signature`` as written, or None (the checks' fixture).  Returns
     ``{"outputs": wire data}``, ``{"error": "figure not drawn: ..."}``, or ``{}`` when the
     pictures module has no picture of ``question`` (NotImplementedError); never raises for what
     the student's code does (a bug of the picture code is named as the grader's, its type only).
     """
     pictures = contract()
-    proxies = _Proxies(student, pictures.FUNCTIONS.get(question, ()), seconds)
+    proxies = _Proxies(student, pictures.FUNCTIONS.get(question, ()), seconds, signatures)
     try:
         outputs = pictures.public_outputs(question, proxies, root=root)
     except PictureFailed:

@@ -40,6 +40,7 @@ __all__ = [
     "intrinsics_style",
     "points_first_style",
     "signature_of_callable",
+    "with_signature",
 ]
 
 
@@ -92,6 +93,29 @@ class Call:
     args: tuple
     names: tuple[str, ...]
     how: str = ""
+
+
+def with_signature(fn, signature: Signature | None):
+    """``fn`` (a callable taking ``*args, **kwargs``: a grader's stand-in for a student function)
+    marked as having the student's ``signature`` (``__signature__``), so that
+    :func:`signature_of_callable` and every convention below see the parameters the student wrote,
+    not the stand-in's.  None leaves ``fn`` as it is.  Returns ``fn``."""
+    if signature is None:
+        return fn
+    P = inspect.Parameter
+    required = set(signature.required)
+    params = [P(n, P.POSITIONAL_OR_KEYWORD, **({} if n in required else {"default": None}))
+              for n in signature.positional]
+    if signature.varargs:
+        params.append(P(signature.varargs, P.VAR_POSITIONAL))
+    params += [P(n, P.KEYWORD_ONLY, default=None) for n in signature.kwonly]
+    if signature.varkw:
+        params.append(P(signature.varkw, P.VAR_KEYWORD))
+    try:
+        fn.__signature__ = inspect.Signature(params)
+    except (ValueError, TypeError):  # names Python itself refuses: the stand-in keeps its own
+        pass
+    return fn
 
 
 # ------------------------------------------------------------------------------------ findM2

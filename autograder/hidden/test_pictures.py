@@ -4,7 +4,9 @@ of their feedback (``autograder.pictures``).
 It runs only when the grader asks for pictures (``--pictures``), after every scored check (the
 plugin orders the ``picture`` items last), one test per question of
 ``starter.checks.pictures.QUESTIONS``.  The student's functions run in the sandbox session of the
-checks, within ``autograder.pictures.SECONDS`` per question; what they return is drawn here
+checks, each call within ``autograder.pictures.SECONDS`` of CPU time, and are called by the
+parameters the student wrote (the checks' ``signatures``: another year's findM2 or
+compute3D_pts gets its year's call, as in the checks); what they return is drawn here
 (``autograder.pictures.drawn``: this process never runs student code).  Whatever they do, the
 test passes and records either the picture or the sentence "figure not drawn: ...".  It has no ``points`` marker:
 it never counts in the result.
@@ -40,7 +42,7 @@ def test_picture(question, request):
     if not config.getoption("--pictures"):
         pytest.skip("pictures were not asked for (--pictures)")
     student = request.getfixturevalue("public_student")
-    record = run_public(student, question)
+    record = run_public(student, question, signatures=request.getfixturevalue("signatures"))
     if record:  # {}: no picture of this question in the pictures module
         # Drawn here, in this worker (the grader's own process; student code ran in the sandbox).
         config._hw4.setdefault("pictures", {})[question] = drawn(question, record)
