@@ -13,6 +13,14 @@
   report GRADED_DIR --out DIR                 the class report: pass shares, mistakes, histograms, Canvas CSV
   nbgrader-grade COURSE [--assignment hw4]    write the kit's scores into an nbgrader gradebook (after autograde)
 
+On a cluster (docs/cluster.md; autograder.cluster):
+  prepare SUBMISSION... --root ROOT --shards K   hidden inputs, the canary and the frozen manifest in ROOT
+  grade --shard i/K --out ROOT                shard i of K: the manifest's submissions i, i+K, ...
+  shards ROOT                                 each shard's progress, and the shards to resubmit
+  merge ROOT                                  the shards joined into ROOT/out (grades.csv, summary.md),
+                                              the class report and the look-alike check
+  slurm ROOT / kubernetes ROOT --image I --claim PVC   the jobs of the shards still to do, and the merge
+
 Before grading anything, a batch grades the answer key in its own sandbox and configuration (the
 canary): unless the key gets full marks, nothing is graded and the command says why.  Student code
 never runs as root or as the grader's own user unless --allow-weak-isolation is given.
@@ -97,6 +105,13 @@ def _private(run):
 
 
 def _grade(args) -> int:
+    if args.shard:
+        from .cluster.cli import shard_command
+
+        return _private(lambda: _batch_errors(lambda: shard_command(args)))
+    if not args.submissions:
+        print("error: grade: expected SUBMISSION... (or --shard i/K --out ROOT of a prepared class)", file=sys.stderr)
+        return 2
     if args.regrade_into:
         return _private(lambda: _regrade_run(args, args.out, args.regrade_into, args.submissions))
     return _private(lambda: _batch_errors(lambda: _grade_run(args)))
@@ -196,9 +211,12 @@ def _common_arguments(p) -> None:
 
 
 def _grade_arguments(p) -> None:
-    p.add_argument("submissions", nargs="+", help="submission folders or .zip files")
+    p.add_argument("submissions", nargs="*", help="submission folders or .zip files")
     p.add_argument("--out", required=True, help="output folder: <out>/<name>/results.json, <out>/grades.csv")
     _common_arguments(p)
+    p.add_argument("--shard", default=None, metavar="i/K",
+                   help="grade shard i of K of the class prepared in --out (python -m autograder prepare), with "
+                        "the manifest's settings")
     p.add_argument("--no-resume", action="store_true", help="regrade submissions whose results exist")
     p.add_argument("--regrade", nargs="+", metavar="NAME", default=None,
                    help="grade these submissions (gradebook names) again, resume the others")
@@ -214,6 +232,36 @@ def _regrade_arguments(p) -> None:
     p.add_argument("--into", required=True, help="the new folder (results and regrade_diff.csv/.md/.html)")
     p.add_argument("submissions", nargs="*", help="submissions (default: the ones recorded in OLD's results)")
     _common_arguments(p)
+
+
+def _prepare(args) -> int:
+    from .cluster.cli import prepare_command
+
+    return _private(lambda: _batch_errors(lambda: prepare_command(args, _config(args))))
+
+
+def _prepare_arguments(p) -> None:
+    p.add_argument("submissions", nargs="+", help="submission folders or .zip files")
+    p.add_argument("--root", required=True, help="the class's folder on storage every node sees at the same path")
+    p.add_argument("--shards", type=int, required=True, help="K: how many shards (jobs) grade the class")
+    _common_arguments(p)
+
+
+def _cluster(function: str):
+    """A function of ``autograder.cluster.cli`` (imported when called); a command runs with umask 077."""
+    def call(arg):
+        from .cluster import cli
+
+        if function.endswith("_arguments"):
+            return getattr(cli, function)(arg)
+        return _private(lambda: getattr(cli, function)(arg))
+
+    return call
+
+
+_shards, _merge, _slurm, _kubernetes = (_cluster(f"{n}_command") for n in ("shards", "merge", "slurm", "kubernetes"))
+_shards_arguments, _merge_arguments, _slurm_arguments, _kubernetes_arguments = (
+    _cluster(f"{n}_arguments") for n in ("shards", "merge", "slurm", "kubernetes"))
 
 
 def _accept_arguments(p) -> None:
@@ -246,6 +294,18 @@ COMMANDS = {
                               install="pip install 'nbgrader>=0.9.6,<0.10'",
                               help="score an nbgrader course's submissions with the kit's grader (after nbgrader "
                                    "autograde)"),
+    "prepare": Command(__name__, "_prepare", "prepare a class for a cluster: hidden inputs, the canary, the manifest",
+                       arguments="_prepare_arguments"),
+    "shards": Command(__name__, "_shards", "each shard's progress of a prepared class, and the shards to resubmit",
+                      arguments="_shards_arguments"),
+    "merge": Command(__name__, "_merge", "join the shards of a prepared class: grades.csv, summary.md, the report",
+                     arguments="_merge_arguments", needs=("matplotlib",),
+                     install="pip install matplotlib"),
+    "slurm": Command(__name__, "_slurm", "write the sbatch array of the shards still to do and its merge job",
+                     arguments="_slurm_arguments"),
+    "kubernetes": Command(__name__, "_kubernetes", "write the Indexed Job of the shards and the merge Job (YAML)",
+                          arguments="_kubernetes_arguments", needs=("yaml",),
+                          install="pip install pyyaml"),
     "similar": Command("autograder.review.__main__", "similar_command",
                        "rank pairs of submissions whose code looks alike, per function (CSV, JSON, HTML)",
                        arguments="similar_arguments"),

@@ -100,7 +100,8 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
                 on_done: Callable[[BatchRecord], None] | None = None,
                 extra_tests: Sequence[str | os.PathLike] | str | os.PathLike | None = (),
                 regrade: Sequence[str] = (), regrade_all: bool = False, allow_weak: bool = False,
-                canary: bool = True, pictures: bool = True) -> list[BatchRecord]:
+                canary: bool = True, pictures: bool = True, names: Sequence[str] | None = None,
+                hide: Sequence[str | os.PathLike] = (), keep: str | os.PathLike | None = None) -> list[BatchRecord]:
     """Grade ``paths`` into ``out`` with ``jobs`` workers (threads, each with its own Sandbox).
 
     Returns one BatchRecord per path, in the order given, and writes ``out/grades.csv``,
@@ -115,7 +116,10 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
     batch machinery turn it off).  ``pictures``: each feedback.html shows the figures of what the
     student's functions did on the public data (the run's unscored picture step, a few seconds per
     submission); without, the feedback is text only.  Scores never depend on it, so it is not part
-    of the configuration: a resumed submission keeps the feedback it was graded with.
+    of the configuration: a resumed submission keeps the feedback it was graded with.  ``names``:
+    the gradebook names of ``paths`` (default ``unique_names(paths)``; a cluster shard grades part
+    of a class named as a whole); ``hide``: more folders student code must not see; ``keep``: the
+    keep of hidden inputs (default ``$HW4_KEEP_INPUTS``).
 
     Raises
     ------
@@ -136,7 +140,9 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
     missing = [str(p) for p in paths if not p.exists()]
     if missing:
         raise FileNotFoundError(f"paths: expected existing submissions, got missing {missing}")
-    names = unique_names(paths)
+    names = unique_names(paths) if names is None else [str(n) for n in names]
+    if len(names) != len(paths) or len(set(names)) != len(names):
+        raise ValueError(f"names: expected one distinct name per path ({len(paths)}), got {len(names)}")
     unknown = sorted(set(regrade) - set(names))
     if unknown:
         raise ValueError(f"regrade: expected names of the submissions given ({', '.join(names[:10])}"
@@ -145,8 +151,8 @@ def grade_batch(paths: Sequence[str | os.PathLike], out: str | os.PathLike, *, j
         extra_tests = [extra_tests]
     # Hidden from student code: the outputs and every folder the submissions live in (the run
     # adds the configuration's file, the official data and the extra tests).
-    run = GradingRun(config, hide=[out, *(p.resolve().parent for p in paths)], extra_tests=extra_tests or (),
-                     isolation=isolation, limits=limits, allow_weak=allow_weak, pictures=pictures)
+    run = GradingRun(config, hide=[out, *(p.resolve().parent for p in paths), *hide], extra_tests=extra_tests or (),
+                     isolation=isolation, limits=limits, allow_weak=allow_weak, pictures=pictures, keep=keep)
     folder_lock = lock(out)
     try:
         note = check_folder(out, run.record, regrade_all, time.strftime("%Y%m%d-%H%M%S"))
