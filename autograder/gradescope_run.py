@@ -22,6 +22,8 @@ import time
 import traceback
 from pathlib import Path
 
+from core.files import list_files
+
 from .gradescope_pictures import add_pictures
 from .results import SubmissionResult
 
@@ -63,8 +65,9 @@ def check_visibility(visibility) -> dict:
 
 
 def _candidates(folder: Path) -> list[Path]:
-    return sorted(p for p in folder.rglob("*") if p.is_file() and not p.is_symlink()
-                  and p.suffix.lower() in (".ipynb", ".py", ".zip")
+    # Listed without recursion: a folder thousands of levels deep must not stop the run.
+    return sorted(p for p, _ in list_files(folder).files
+                  if p.suffix.lower() in (".ipynb", ".py", ".zip")
                   and not any(part.startswith(".") or part == "__MACOSX"
                               for part in p.relative_to(folder).parts))
 

@@ -20,6 +20,7 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from core.files import list_files
 from core.text import write_atomic
 
 from . import feedback_page
@@ -56,10 +57,10 @@ def submission_digest(path: Path) -> str:
     h = hashlib.sha256()
     path = Path(path)
     if path.is_dir():
-        for p in sorted(path.rglob("*")):
-            if p.is_file() and not p.is_symlink():
-                h.update(os.fsencode(p.relative_to(path).as_posix()) + b"\0")
-                h.update(hashlib.sha256(p.read_bytes()).digest())
+        # Listed without recursion (a deep folder must not stop the batch), in sorted path order.
+        for p in sorted(p for p, _ in list_files(path).files):
+            h.update(os.fsencode(p.relative_to(path).as_posix()) + b"\0")
+            h.update(hashlib.sha256(p.read_bytes()).digest())
     elif path.is_file():
         with open(path, "rb") as fh:
             for chunk in iter(lambda: fh.read(1 << 20), b""):

@@ -43,7 +43,6 @@ other files are still used.
 from __future__ import annotations
 
 import ast
-import os
 import re
 import stat
 import zipfile
@@ -51,6 +50,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
+from core.files import list_files
 from core.manifest import GIVEN_HELPERS, NOTEBOOKS, QUESTIONS, functions_of_notebook
 
 from .submission_layout import (
@@ -617,26 +617,20 @@ def _is_candidate(name: str) -> bool:
 
 
 def _folder_files(root: Path, limits: SizeLimits, links: list[str]) -> list[tuple[str, bytes]]:
-    out, total, count = [], 0, 0
-    for folder, dirs, names in os.walk(root, followlinks=False):
-        dirs.sort()
-        links += [rel for d in dirs if Path(folder, d).is_symlink()  # os.walk lists a linked folder here
-                  and not _is_ignored(rel := Path(folder, d).relative_to(root).as_posix())]
-        for name in sorted(names):
-            count += 1
-            if count > limits.max_entries:
-                raise SubmissionError(f"path: expected at most {limits.max_entries} entries, got more")
-            p = Path(folder, name)
-            rel = p.relative_to(root).as_posix()
-            st = p.lstat()  # lstat: a symbolic link is skipped, never followed
-            if stat.S_ISLNK(st.st_mode) and not _is_ignored(rel):
-                links.append(rel)
-            if not stat.S_ISREG(st.st_mode) or not _is_candidate(rel):
-                continue
-            total += st.st_size
-            if total > limits.max_total_bytes:
-                raise SubmissionError(f"path: expected at most {limits.max_total_bytes} bytes of notebooks, got more")
-            out.append((rel, _TOO_BIG if st.st_size > limits.max_file_bytes else p.read_bytes()))
+    # Listed without recursion: a folder thousands of levels deep must not stop the class.
+    listing = list_files(root, max_entries=limits.max_entries)
+    if listing.truncated:
+        raise SubmissionError(f"path: expected at most {limits.max_entries} entries, got more")
+    links += [rel for p in listing.links if not _is_ignored(rel := p.relative_to(root).as_posix())]
+    out, total = [], 0
+    for p, st in listing.files:
+        rel = p.relative_to(root).as_posix()
+        if not _is_candidate(rel):
+            continue
+        total += st.st_size
+        if total > limits.max_total_bytes:
+            raise SubmissionError(f"path: expected at most {limits.max_total_bytes} bytes of notebooks, got more")
+        out.append((rel, _TOO_BIG if st.st_size > limits.max_file_bytes else p.read_bytes()))
     return out
 
 

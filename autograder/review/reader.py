@@ -16,6 +16,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from core.files import list_files
 from core.manifest import NOTEBOOKS, QUESTIONS
 
 __all__ = ["FunctionSource", "SubmissionCode", "FUNCTIONS", "read_submission", "functions_in_source",
@@ -98,10 +99,10 @@ def _files(path: Path) -> list[tuple[str, bytes]]:
     keep = (".ipynb", ".py")
     if path.is_dir():
         out = []
-        for p in sorted(path.rglob("*")):
+        for p, st in sorted(list_files(path).files):   # without recursion: a deep folder stops nothing
             rel = p.relative_to(path).as_posix()
-            if (p.is_file() and p.suffix in keep and ".ipynb_checkpoints" not in rel
-                    and "__MACOSX" not in rel and p.stat().st_size <= _MAX_FILE_BYTES):
+            if (p.suffix in keep and ".ipynb_checkpoints" not in rel
+                    and "__MACOSX" not in rel and st.st_size <= _MAX_FILE_BYTES):
                 out.append((rel, p.read_bytes()))
         return out
     if zipfile.is_zipfile(path):
