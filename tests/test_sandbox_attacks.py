@@ -1,0 +1,171 @@
+"""A class with students who attack the sandbox itself, graded through the CLI in both shapes the
+kit runs in: as root with namespaces, and at the ``uid`` level in a container like Gradescope's
+(Docker's default capabilities through ``setpriv``, a public Python's venv; ../shared/FIELD-NOTES.md).
+
+The attackers (tests/corpus/hostile.py); the two that could reach the next submission graded
+under the same uid are each followed by an answer key:
+
+- ``stashes_truth``: keeps every F the other questions' checks hand it (memory, home, /dev/shm) and
+  returns it from eightpoint, on the checks and on the pictures;
+- ``throws_refine_switch``: turns refineF's switch back on from inside the child;
+- ``kernel_channels``: a note in the uid's keyring, gigabytes of memfd files, a user namespace;
+- ``outlives_its_sandbox``: a zombie-led process in a session of its own that kills the next
+  processes of its uid, and 3,000-level folder trees in its home, /dev/shm and /run/lock.
+
+Every case is contained: the key graded right after each of those keeps full marks, the two Q2
+attackers stay at or below half of Q2 like the same mistake without the trick (before: 9.25 and 7
+of 10), the kernel refuses the channels, nothing of the sandbox's uids is left in the shared temporary folders, and the class
+ends with grades.csv.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import corpus
+import nbformat
+import pytest
+from corpus import hostile, variants
+
+from autograder.config import quick_config
+from core.paths import KIT_ROOT
+from test_sandbox_leaks import full_marks, in_container, key_with
+
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None or shutil.which("unshare") is None,
+                       reason="the levels tested need root, util-linux setpriv and unshare"),
+    pytest.mark.skipif(platform.machine() != "x86_64", reason="the attacks call x86_64 syscall numbers"),
+]
+
+SHARED = ("/tmp", "/var/tmp", "/dev/shm", "/run/lock")
+BASELINE = "c_plain_transposed_refined"
+# The attackers that could harm the next submission graded under the same uid, and the key after each.
+KEYS_AFTER = {"d_kernel_channels": "e_then_key", "f_outlives_its_sandbox": "g_then_key"}
+
+
+def _class(root: Path) -> list[Path]:
+    """The class, in the order it is graded (names sort as given; one at a time at the uid level)."""
+    transposed = variants.EIGHTPOINT_TRANSPOSED_REFINED
+    subs = root / "subs"
+    made = [
+        _key_with_cells(subs / "a_stashes_truth", hostile.stashes_truth(transposed)),
+        key_with(subs / "b_throws_refine_switch", "q2_eightpoint", hostile.throws_refine_switch(transposed)),
+        key_with(subs / BASELINE, "q2_eightpoint", transposed),
+        key_with(subs / "d_kernel_channels", "q3_metric_reconstruction", hostile.KERNEL_CHANNELS),
+        key_with(subs / "e_then_key", "q3_metric_reconstruction", hostile.KERNEL_CHANNELS.replace(
+            "hw4-big", "hw4-big-again")),
+        key_with(subs / "f_outlives_its_sandbox", "q3_metric_reconstruction", hostile.OUTLIVES_ITS_SANDBOX),
+        key_with(subs / "g_then_key", "q2_eightpoint", "x_unused = 3\n"),
+    ]
+    return made
+
+
+def _key_with_cells(folder: Path, cells: dict[str, str]) -> Path:
+    """The answer key with each cell of ``cells`` appended to the notebook of its stem."""
+    nbs = corpus.notebooks("key")
+    for stem, cell in cells.items():
+        corpus.append_cell(nbs, stem, cell)
+    folder.mkdir(parents=True)
+    for name, nb in nbs.items():
+        nbformat.write(nb, folder / f"{name}.ipynb")
+    return folder
+
+
+def _grade(level: str, tmp_path: Path, python: list[str], pictures: bool = True) -> dict:
+    os.chmod(tmp_path, 0o755)
+    config = tmp_path / "grader.json"
+    config.write_text(json.dumps(quick_config().to_dict()))
+    subs = _class(tmp_path)
+    out = tmp_path / "out"
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST", "HW4_"))}
+    env["PYTHONPATH"] = str(KIT_ROOT)
+    proc = subprocess.run([*python, "-m", "autograder", "grade", *map(str, subs), "--out", str(out), "--config",
+                           str(config), "--jobs", "1", "--isolation", level, "--quiet",
+                           *([] if pictures else ["--no-pictures"])],
+                          cwd=KIT_ROOT, env=env, capture_output=True, text=True, timeout=1500, check=False)
+    states = {p.name: json.loads((out / p.name / "grading.json").read_text())
+              for p in subs if (out / p.name / "grading.json").is_file()}
+    return {"proc": proc, "out": out, "states": states, "names": [p.name for p in subs]}
+
+
+def _printed(state: dict, tag: str) -> list[str]:
+    return [line.split(" ", 1)[1] for line in state["staff"]["stdout"].splitlines() if line.startswith(tag + " ")]
+
+
+def _left_behind(uids: set[int]) -> list[str]:
+    """Entries of the shared temporary folders' top level owned by one of ``uids`` (the sandbox's
+    group may write nowhere else in them; nothing else of the machine is walked)."""
+    found = []
+    for root in SHARED:
+        try:
+            entries = list(os.scandir(root))
+        except OSError:
+            continue
+        for entry in entries:
+            try:
+                if entry.stat(follow_symlinks=False).st_uid in uids:
+                    found.append(entry.path)
+            except OSError:
+                pass
+    return found
+
+
+def _contained(graded: dict, level: str) -> None:
+    proc, states = graded["proc"], graded["states"]
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    # The class ends with its grades, every submission in them.
+    with open(graded["out"] / "grades.csv", newline="", encoding="utf-8") as fh:
+        assert len(list(csv.DictReader(fh))) == len(graded["names"])
+    assert set(states) == set(graded["names"])
+    assert {s["isolation"]["level"] for s in states.values()} == {level}
+
+    # The key graded right after each attacker keeps full marks.
+    for attacker, key in KEYS_AFTER.items():
+        assert full_marks(states[key]["scores"]) == [], (attacker, key, states[key]["scores"])
+
+    # Nothing crossed between checks or to the pictures (when drawn): the stash was filled, and never found.
+    stash = states["a_stashes_truth"]
+    assert any(int(n) >= 1 for n in _printed(stash, "KEPT")), stash["staff"]["stdout"][-2000:]
+    found = _printed(stash, "STASHED")
+    assert found and set(found) == {"0"}, found
+    # The trick earns nothing: at or below half of Q2, as the same mistake without it (the hidden
+    # scenes are drawn from each submission's code, so the two scores need not be equal).
+    assert states[BASELINE]["scores"]["Q2"] <= 5
+    for attacker in ("a_stashes_truth", "b_throws_refine_switch"):
+        assert states[attacker]["scores"]["Q2"] <= 5, (attacker, states[attacker]["scores"]["Q2"])
+
+    # The kernel refused the channels (EACCES from the syscall filter), in both submissions.
+    for name in ("d_kernel_channels", "e_then_key"):
+        for tag in ("KEYRING-READ", "KEYRING-WRITE", "MEMFD", "USERNS"):
+            assert _printed(states[name], tag) and set(_printed(states[name], tag)) == {"13"}, (name, tag)
+
+    # The trees were made, and are gone with everything else of the sandbox's uids.
+    assert "3000" in " ".join(_printed(states["f_outlives_its_sandbox"], "DEEP"))
+    uids = {s["isolation"]["uid"] for s in states.values()}
+    assert not {0, os.getuid()} & uids
+    assert _left_behind(uids) == []
+
+
+def test_attacks_are_contained_at_the_namespaces_level(tmp_path):
+    _contained(_grade("namespaces", tmp_path, [sys.executable]), "namespaces")
+
+
+def test_attacks_are_contained_at_the_uid_level_in_a_container(tmp_path):
+    from test_fail_closed import public_folder, public_venv
+
+    root = public_folder()
+    try:
+        python = in_container([str(public_venv(root / "venv"))])
+        # Without the pictures here (the fresh child they run on is the same at every level): the
+        # run's time goes to what differs, the uid's sweep and clean-up between submissions.
+        _contained(_grade("uid", tmp_path, python, pictures=False), "uid")
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
