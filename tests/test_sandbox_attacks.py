@@ -36,7 +36,7 @@ from corpus import hostile, variants
 
 from autograder.config import quick_config
 from core.paths import KIT_ROOT
-from test_sandbox_leaks import full_marks, in_container, key_with
+from test_sandbox_leaks import full_marks, in_container, key_with, owned_by
 
 pytestmark = [
     pytest.mark.slow,
@@ -45,7 +45,6 @@ pytestmark = [
     pytest.mark.skipif(platform.machine() != "x86_64", reason="the attacks call x86_64 syscall numbers"),
 ]
 
-SHARED = ("/tmp", "/var/tmp", "/dev/shm", "/run/lock")
 BASELINE = "c_plain_transposed_refined"
 # The attackers that could harm the next submission graded under the same uid, and the key after each.
 KEYS_AFTER = {"d_kernel_channels": "e_then_key", "f_outlives_its_sandbox": "g_then_key"}
@@ -100,24 +99,6 @@ def _printed(state: dict, tag: str) -> list[str]:
     return [line.split(" ", 1)[1] for line in state["staff"]["stdout"].splitlines() if line.startswith(tag + " ")]
 
 
-def _left_behind(uids: set[int]) -> list[str]:
-    """Entries of the shared temporary folders' top level owned by one of ``uids`` (the sandbox's
-    group may write nowhere else in them; nothing else of the machine is walked)."""
-    found = []
-    for root in SHARED:
-        try:
-            entries = list(os.scandir(root))
-        except OSError:
-            continue
-        for entry in entries:
-            try:
-                if entry.stat(follow_symlinks=False).st_uid in uids:
-                    found.append(entry.path)
-            except OSError:
-                pass
-    return found
-
-
 def _contained(graded: dict, level: str) -> None:
     proc, states = graded["proc"], graded["states"]
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -151,7 +132,7 @@ def _contained(graded: dict, level: str) -> None:
     assert "3000" in " ".join(_printed(states["f_outlives_its_sandbox"], "DEEP"))
     uids = {s["isolation"]["uid"] for s in states.values()}
     assert not {0, os.getuid()} & uids
-    assert _left_behind(uids) == []
+    assert owned_by(uids) == []
 
 
 def test_attacks_are_contained_at_the_namespaces_level(tmp_path):

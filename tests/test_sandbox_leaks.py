@@ -64,17 +64,22 @@ def python_for(level: str, public_python: Path) -> list[str]:
 
 
 def owned_by(uids: set[int]) -> list[str]:
-    """Everything in the shared temporary folders owned by one of ``uids`` (links not followed)."""
+    """The entries of the shared temporary folders' top level owned by one of ``uids`` (links not
+    followed).  Only the top level is looked at: the sandbox's group may create nothing deeper in
+    them (/tmp, /var/tmp and /run/lock let it only pass through), and the test must not walk what
+    other users of the machine keep there (a folder thousands of levels deep, say)."""
     found = []
     for root in SHARED:
-        for top, dirs, files in os.walk(root):
-            for name in dirs + files:
-                path = os.path.join(top, name)
-                try:
-                    if os.lstat(path).st_uid in uids:
-                        found.append(path)
-                except OSError:
-                    pass
+        try:
+            entries = list(os.scandir(root))
+        except OSError:
+            continue
+        for entry in entries:
+            try:
+                if entry.stat(follow_symlinks=False).st_uid in uids:
+                    found.append(entry.path)
+            except OSError:
+                pass
     return found
 
 
