@@ -11,7 +11,10 @@ and the preprocessors that make every output printable.
   question's, such as Q3.2's errors);
 - the kit's plumbing is not the student's work: the setup cell (and any code cell tagged
   ``PLUMBING_TAG``) prints as one line, the "Open in Colab" note (tagged, or recognised by its
-  words in notebooks built before the tag) is left out.
+  words in notebooks built before the tag) is left out;
+- what the kit's own cells print (the setup cell, the cells the builder tagged ``KIT_CELL_TAG``:
+  figures, checks, data) names no folder of the student's machine ("homework kit: found") and
+  shows no traceback: an error there prints as one line, its type and message.
 """
 
 from __future__ import annotations
@@ -34,8 +37,8 @@ from .cover import NO_NAME, TITLE, cover_html, heading_id, question_status
 from .mathjax import ensure_mathjax
 
 __all__ = ["StaticOutputsPreprocessor", "TruncateOutputsPreprocessor", "ScaleImagesPreprocessor",
-           "LocalImagesPreprocessor", "SetupCellPreprocessor", "PlumbingNotesPreprocessor", "PREPROCESSORS",
-           "SETUP_FIRST_LINE", "PAGE_START_TAG", "PLUMBING_TAG", "notebooks_to_html"]
+           "LocalImagesPreprocessor", "SetupCellPreprocessor", "PlumbingNotesPreprocessor", "KitOutputsPreprocessor",
+           "PREPROCESSORS", "SETUP_FIRST_LINE", "PAGE_START_TAG", "PLUMBING_TAG", "KIT_CELL_TAG", "notebooks_to_html"]
 
 ASSETS = Path(__file__).resolve().with_name("pdf_assets")
 IMAGE_TYPES = ("image/png", "image/svg+xml", "image/jpeg")
@@ -201,6 +204,8 @@ SETUP_FIRST_LINE = "# Setup: run this cell first."
 # begins a printed page, and a cell of the kit's plumbing (the setup cell, the Colab note).
 PAGE_START_TAG = "hw4-page-start"
 PLUMBING_TAG = "hw4-kit-plumbing"
+# A code cell the kit wrote (a figure, a self-check, data loading): not the student's code.
+KIT_CELL_TAG = "hw4-kit-cell"
 # How the Colab note of notebooks built before PLUMBING_TAG begins (kit.notebooks.setup writes it).
 _COLAB_NOTE_STARTS = ("[Open this notebook in Colab](", "*Colab: this kit comes from ")
 
@@ -245,10 +250,58 @@ class PlumbingNotesPreprocessor(Preprocessor):
         return nb, resources
 
 
-# Order matters: streams are merged before they are cut; a representation is chosen before
+# A folder of a student's machine (macOS, Linux, Colab, Windows), as a kit's cell may print it.
+_MACHINE_PATH = re.compile(r"(?:[A-Za-z]:[\\/]|/)(?:Users|home|content|root|tmp|private|mnt|Volumes|opt|srv|var|"
+                           r"Documents and Settings)[\\/][^\s'\"]*")
+_KIT_FOUND = re.compile(r"^homework kit: .*$", re.MULTILINE)
+
+
+def _is_kit_cell(cell) -> bool:
+    """A code cell the kit wrote: the setup cell, a tagged cell, or one recognised by its code in
+    notebooks built before the tag (a cell run inside ``kit_cell``, a self-check)."""
+    if cell.cell_type != "code":
+        return False
+    source = cell.source.lstrip()
+    return (source.startswith((SETUP_FIRST_LINE, "from starter.checks.")) or "with kit_cell(" in source
+            or bool({PLUMBING_TAG, KIT_CELL_TAG} & set(_tags(cell))))
+
+
+def _without_paths(text: str) -> str:
+    text = _KIT_FOUND.sub("homework kit: found", text)
+    return _MACHINE_PATH.sub("…", text)
+
+
+class KitOutputsPreprocessor(Preprocessor):
+    """The outputs of the kit's own cells hold the student's work only: no folder of their
+    machine (replaced by "…"; the setup cell's "homework kit: <folder>" by "homework kit: found")
+    and no traceback (an error prints as one line, its type and the first line of its message)."""
+
+    def preprocess_cell(self, cell, resources, index):
+        if not _is_kit_cell(cell):
+            return cell, resources
+        kept = []
+        for out in cell.get("outputs", []):
+            if out.output_type == "error":
+                first = (str(out.get("evalue", "")).strip().splitlines() or [""])[0][:300]
+                line = f"this cell of the kit stopped: {out.get('ename', 'Error')}" + (f": {first}" if first else "")
+                kept.append(nbformat.v4.new_output("stream", name="stdout", text=_without_paths(line) + "\n"))
+                continue
+            if out.output_type == "stream":
+                out.text = _without_paths("".join(out.text) if isinstance(out.text, list) else out.text)
+            elif "text/plain" in out.get("data", {}):
+                plain = out.data["text/plain"]
+                out.data["text/plain"] = _without_paths("".join(plain) if isinstance(plain, list) else plain)
+            kept.append(out)
+        cell.outputs = kept
+        return cell, resources
+
+
+# Order matters: streams are merged before they are cut, and the kit's cells cleaned while their
+# code is still theirs (before the setup cell's is shortened); a representation is chosen before
 # images are scaled (so only the kept image is decoded); links are fixed before rendering.
-PREPROCESSORS = (CoalesceStreamsPreprocessor, StaticOutputsPreprocessor, TruncateOutputsPreprocessor,
-                 ScaleImagesPreprocessor, LocalImagesPreprocessor, SetupCellPreprocessor, PlumbingNotesPreprocessor)
+PREPROCESSORS = (CoalesceStreamsPreprocessor, KitOutputsPreprocessor, StaticOutputsPreprocessor,
+                 TruncateOutputsPreprocessor, ScaleImagesPreprocessor, LocalImagesPreprocessor, SetupCellPreprocessor,
+                 PlumbingNotesPreprocessor)
 
 
 # ----------------------------------------------------------------------------- questions, cover

@@ -12,7 +12,7 @@ import nbformat
 
 from core.manifest import QUESTIONS, Question
 
-from handin.html import PAGE_START_TAG, PLUMBING_TAG
+from handin.html import KIT_CELL_TAG, PAGE_START_TAG, PLUMBING_TAG
 
 from .setup import Settings, _colab_text, _setup_text
 from .source import _BARE_HEADING, Block, Extracted, SourceError, _heading_text, _referenced, extract_function
@@ -174,10 +174,52 @@ def _setup_block(block: Block, st: _State, where: str) -> list[nbformat.Notebook
     return [_code(_setup_text(st.settings), tags=[PLUMBING_TAG])]
 
 
+# The context manager the setup cell defines (kit/notebooks/setup.py): the kit's own cells run inside it.
+KIT_CELL = "kit_cell"
+
+
+def _is_definition(node: ast.stmt) -> bool:
+    """An import, a def or class, or ``name = from_notebook(...)``: what ``from_notebook`` loads of a notebook."""
+    if isinstance(node, (ast.Import, ast.ImportFrom, ast.FunctionDef, ast.ClassDef)):
+        return True
+    return (isinstance(node, ast.Assign) and isinstance(node.value, ast.Call)
+            and isinstance(node.value.func, ast.Name) and node.value.func.id == "from_notebook")
+
+
+def _contained(text: str, label: str, where: str) -> str:
+    """A cell of the kit with what follows its leading imports inside ``with kit_cell(label):``, so
+    that whatever the student's functions return, a failure prints one line and later cells run.
+
+    A cell of definitions only (imports, defs, ``from_notebook`` lines: what later notebooks load
+    of it) or of comments only stays as it is."""
+    body = ast.parse(text).body
+    k = 0
+    while k < len(body) and isinstance(body[k], (ast.Import, ast.ImportFrom)):
+        k += 1
+    if all(_is_definition(node) for node in body[k:]):
+        return text
+    lines = text.splitlines()
+    cut = body[k].lineno - 1
+    while cut > 0 and lines[cut - 1].lstrip().startswith("#"):  # a comment stays with its statement
+        cut -= 1
+    head = "\n".join(lines[:cut]).rstrip("\n")
+    inside = "\n".join(("    " + line) if line.strip() else "" for line in lines[cut:])
+    out = (head + "\n\n" if head else "") + f'with {KIT_CELL}("{label}"):\n{inside}'
+    try:
+        ast.parse(out)
+    except SyntaxError as exc:
+        raise SourceError(f"{where}: the cell cannot be put inside {KIT_CELL} ({exc.msg})") from None
+    return out
+
+
 def _python_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
     text, marked = _clear_regions(block.text, st.variant, where)
     st.defined |= _bound_names(block.text.replace(BEGIN, "").replace(END, ""), where)
-    meta = {"tags": list(block.args)} if block.args else {}
+    tags = list(block.args)
+    if not marked:  # the kit's own cell: contained, and tagged so that the PDF shows no path or traceback of it
+        text = _contained(text, st.question.id if st.question else st.stem, where)
+        tags.append(KIT_CELL_TAG)
+    meta = {"tags": tags} if tags else {}
     if marked and st.variant == "nbgrader":
         meta.update(_nbgrader_meta(f"{st.stem}_cell{st.code_cells}", solution=True, grade=False, locked=False))
     return [_code(text, **meta)]
@@ -204,7 +246,7 @@ def _check_block(block: Block, st: _State, where: str) -> list[nbformat.Notebook
     if name not in st.solutions:
         raise SourceError(f"{where}: check of {name} before (or without) its solution cell")
     module = extract_function(name, st.solutions_dir).module
-    cell = _code(_check_text(name, module, st.variant))
+    cell = _code(_check_text(name, module, st.variant), tags=[KIT_CELL_TAG])
     st.graded.setdefault(st.question.id, []).append((cell, f"check_{name}", None, False))
     return [cell]
 

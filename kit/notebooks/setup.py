@@ -155,7 +155,29 @@ if kit_dir is None:
                        "install the kit (pip install -e .), or run it on Colab.")
 if str(kit_dir) not in sys.path:
     sys.path.insert(0, str(kit_dir))
-print("homework kit:", kit_dir)"""
+print("homework kit:", kit_dir)
+
+
+# The kit's own cells run inside `with kit_cell("Q6"):` so that, whatever your functions return, a
+# failure there prints one line and the cells below still run.
+class kit_cell:
+    def __init__(self, question):
+        self.question = question
+
+    def __enter__(self):
+        pyplot = sys.modules.get("matplotlib.pyplot")
+        self.figures = set(pyplot.get_fignums()) if pyplot is not None else set()
+
+    def __exit__(self, kind, error, traceback):
+        if kind is None or not issubclass(kind, Exception):
+            return False
+        pyplot = sys.modules.get("matplotlib.pyplot")
+        for number in set(pyplot.get_fignums()) - self.figures if pyplot is not None else ():
+            pyplot.close(number)  # a figure half drawn is not shown
+        first = (str(error).strip().splitlines() or [""])[0][:200]
+        print(f"{{self.question}}: this cell of the kit stopped ({{kind.__name__}}{{': ' + first if first else ''}}); "
+              "the cells below still run.")
+        return True"""
 
 
 def _colab_text(stem: str, settings: Settings) -> str:

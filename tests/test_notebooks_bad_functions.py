@@ -1,0 +1,103 @@
+"""Every notebook runs to its end under nbconvert (no ``--allow-errors``) whatever the student's
+functions do: the kit's own cells are contained like the student's (``kit_cell`` of the setup
+cell, ``try_run``, the self-checks and their figures), so a bad function prints lines, never a
+traceback, and never stops the notebook.
+
+Each student notebook gets its stubs replaced by functions of one kind of bug, in all notebooks
+at once (the later notebooks load the earlier ones' functions): "malformed" (wrong shapes, and
+arrays where a number is expected: Q6's 8 keypoints with an array of errors, Q5's o1 an array),
+"nan" (the right shapes, every number NaN) and "raise" (an exception that is not a stub's).
+"""
+
+from __future__ import annotations
+
+import shutil
+import textwrap
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from core.manifest import NOTEBOOKS, functions_of_notebook
+from kit import notebooks as nbk
+
+pytestmark = pytest.mark.slow
+
+# function -> the body of a function of that kind of bug (its arguments as the handout names them)
+MALFORMED = {
+    "eightpoint": "return np.zeros((2, 2))",
+    "essentialMatrix": "return np.ones(4)",
+    "triangulate": "return np.zeros((len(pts1), 3)), np.zeros(len(pts1))",      # err an array
+    "findM2": "return np.zeros((3, 3)), np.zeros(2), np.zeros((5, 3))",
+    "epipolarCorrespondence": "return np.array([1.0, 2.0]), np.array([3.0, 4.0])",
+    "compute3D_pts": "return np.zeros((5, 2))",
+    "rodriguesResidual": "return np.zeros(3)",
+    "bundleAdjustment": "return np.hstack([np.eye(3), np.ones((3, 1))]), np.ones((len(p1), 3)), np.ones(4), np.ones(4)",
+    "MultiviewReconstruction": "return np.zeros((8, 3)), np.zeros(8)",
+    "plot_3d_keypoint_video": "return 'not a figure'",
+}
+NAN = {
+    "eightpoint": "return np.full((3, 3), np.nan)",
+    "essentialMatrix": "return np.full((3, 3), np.nan)",
+    "triangulate": "return np.full((len(pts1), 3), np.nan), np.nan",
+    "findM2": "return np.full((3, 4), np.nan), np.full((3, 4), np.nan), np.full((len(pts1), 3), np.nan)",
+    "epipolarCorrespondence": "return np.nan, np.nan",
+    "compute3D_pts": "return np.full((len(x1), 3), np.nan), np.full((len(x1), 2), np.nan)",
+    "rodriguesResidual": "return np.full(4 * len(p1), np.nan)",
+    "bundleAdjustment": "return np.full((3, 4), np.nan), np.full((len(p1), 3), np.nan), np.nan, np.nan",
+    "MultiviewReconstruction": "return np.full((len(pts1), 3), np.nan), np.nan",
+    "plot_3d_keypoint_video": "return None",
+}
+RAISE = {name: "raise ValueError('a bug of the student, not a stub')" for name in MALFORMED}
+KINDS = {"malformed": MALFORMED, "nan": NAN, "raise": RAISE}
+
+
+def _with_bugs(stem: str, bodies: dict) -> nbformat.NotebookNode:
+    nb = nbformat.read(nbk.output_path(stem, "student"), as_version=4)
+    for cell in nb.cells:
+        for name in functions_of_notebook(stem):
+            if cell.cell_type == "code" and cell.source.startswith(f"def {name}("):
+                body = textwrap.indent(f"import numpy as np\n{bodies[name]}", "    ")
+                assert nbk.NBGRADER_STUB.splitlines()[-1] in cell.source, name
+                cell.source = cell.source.replace("    " + nbk.NBGRADER_STUB.replace("\n", "\n    "), body)
+    return nb
+
+
+@pytest.fixture(scope="module")
+def homework_data(tmp_path_factory):
+    from core.paths import KIT_ROOT
+
+    kit_data = KIT_ROOT / "data"
+    if (kit_data / "temple" / "some_corresp.npz").exists() and (kit_data / "q6" / "time0.npz").exists():
+        return kit_data
+    from scenes.defaults import write_default_data
+
+    out = tmp_path_factory.mktemp("default-data")
+    write_default_data(out)
+    return out
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_every_notebook_runs_to_the_end_whatever_the_functions_do(kind, tmp_path, homework_data, monkeypatch):
+    from nbconvert.preprocessors import ExecutePreprocessor
+
+    monkeypatch.setenv("HW4_DATA", str(homework_data))
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    for stem in NOTEBOOKS:
+        if not functions_of_notebook(stem):
+            continue
+        # The earlier notebooks' functions are the key's, so that every cell of this one is reached.
+        folder = tmp_path / stem
+        folder.mkdir()
+        for other in NOTEBOOKS:
+            shutil.copy(nbk.output_path(other, "key"), folder / f"{other}.ipynb")
+        nb = _with_bugs(stem, KINDS[kind])
+        # allow_errors False, as nbconvert --execute without --allow-errors: a cell that raises fails here
+        ExecutePreprocessor(timeout=120, kernel_name="python3", allow_errors=False).preprocess(
+            nb, {"metadata": {"path": str(folder)}})
+        outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+        assert not [o for o in outputs if o.output_type == "error"], stem
+        text = "".join(o.get("text", "") for o in outputs if o.output_type == "stream")
+        assert "Traceback (most recent call last)" not in text, (stem, text[-3000:])
+        if kind == "raise":
+            assert "a bug of the student" in text, stem   # said in one line, not hidden
