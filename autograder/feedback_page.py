@@ -6,8 +6,12 @@ folder (``<out>/<name>/``):
 
 - ``feedback.html``: one page, no script and no external resource (a Content-Security-Policy
   allows only inline styles and ``data:`` images), every figure embedded as a ``data:`` URI
-  with ``Picture.alt`` as its alt text; what the student reads in feedback.md, per question
-  (hidden checks summarised without their names or text, as there);
+  with ``Picture.alt`` as its alt text; read in a minute: the total and each question's score
+  first (a table linking to the questions), then per question its failed checks in words
+  (their feedback, as in feedback.md), the passed ones in one line each, its picture at the
+  page's full width and the picture's measures named in words with their units
+  (``autograder.pictures.measures_in_words``); hidden checks summarised without their names or
+  text, as there; the notes about the submission's files and helpers folded at the end;
 - ``figures/<question>.png`` and ``figures/figures.json`` (question -> title, alt, measures and
   file, or the sentence why there is no figure): what the class report's examples are taken from.
 
@@ -26,7 +30,7 @@ from pathlib import Path
 from core.text import points, write_atomic
 from core.untrusted import for_html
 
-from .pictures import finite_measures
+from .pictures import finite_measures, measures_in_words
 from .results import QuestionResult, SubmissionResult
 
 __all__ = ["CSP", "FIGURES", "PAGE", "figure_html", "page", "verdict_lines", "write"]
@@ -35,46 +39,64 @@ PAGE = "feedback.html"
 FIGURES = "figures"
 CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
 _STYLE = """
-body{font-family:system-ui,sans-serif;margin:1.5em;max-width:1200px;color:#222}
-.q{display:flex;flex-wrap:wrap;gap:1.5em;align-items:flex-start;border-top:1px solid #ddd;padding:.8em 0}
-.q figure{margin:0;flex:0 1 560px}.q figure img{max-width:100%;height:auto;border:1px solid #ccc}
-.q .verdict{flex:1 1 320px;min-width:0}.passed{color:#1a6b2a}.failed{color:#a4161a}
+body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1200px;padding:0 1em;color:#222;line-height:1.4}
+.summary td,.summary th{padding:2px 10px;text-align:left;border-bottom:1px solid #eee}
+.q{border-top:1px solid #ccc;padding:.8em 0}.q figure{margin:.6em 0}
+.q figure img{width:100%;height:auto;border:1px solid #ccc}
+.passed{color:#1a6b2a}.failed{color:#a4161a}
 .note{color:#555;font-style:italic}table{border-collapse:collapse}td{padding:1px 8px;border-bottom:1px solid #eee}
-.fb{white-space:pre-wrap;margin:.2em 0 .6em 1.2em;color:#333}
+.fb{white-space:pre-wrap;margin:.2em 0 .6em 1.2em;color:#333}figcaption{font-weight:600}
+details.notes{margin-top:2em;border-top:1px solid #ccc;padding-top:.6em}
 """
 
 
-def _img(png: bytes, alt: str) -> str:
-    return f"<img alt=\"{for_html(alt, newlines=False)}\" src=\"data:image/png;base64,{base64.b64encode(png).decode()}\">"
-
-
-def figure_html(figure) -> str:
-    """One figure as HTML: the ``Picture`` (image, title, measures) or the sentence why there is none."""
+def figure_html(figure, image: tuple[str, bytes] | None = None) -> str:
+    """One figure as HTML: the ``Picture`` (image, title, its measures in words with their units)
+    or the sentence why there is none.  ``image``: (MIME type, bytes) shown instead of the PNG (a
+    smaller copy for Gradescope)."""
     if isinstance(figure, str):
         return f"<p class=\"note\">{for_html(figure)}</p>"
-    rows = "".join(f"<tr><td>{for_html(k, newlines=False)}</td><td>{v:.4g}</td></tr>"
-                   for k, v in finite_measures(figure).items())
-    return (f"<figure>{_img(figure.png, figure.alt)}<figcaption>{for_html(figure.title)}"
-            + (f"<table>{rows}</table>" if rows else "") + "</figcaption></figure>")
+    rows = "".join(f"<tr><td>{for_html(words, newlines=False)}</td><td>{for_html(value, newlines=False)}</td></tr>"
+                   for words, value in measures_in_words(figure))
+    mime, data = image if image is not None else ("image/png", figure.png)
+    img = (f"<img alt=\"{for_html(figure.alt, newlines=False)}\" "
+           f"src=\"data:{mime};base64,{base64.b64encode(data).decode()}\">")
+    return (f"<figure><figcaption>{for_html(figure.title)}</figcaption>{img}"
+            + (f"<table>{rows}</table>" if rows else "") + "</figure>")
 
 
 def verdict_lines(q: QuestionResult, *, feedback: bool = True) -> str:
-    """The question's verdict lines as HTML: one per check a student may see (passed or failed,
-    points, and with ``feedback`` its text), then the hidden checks summed up."""
+    """The question's verdict lines as HTML: its failed checks first (points, and with
+    ``feedback`` what was measured and expected, in words), then the passed ones, one line each,
+    then the hidden checks summed up."""
     shown = [t for t in q.tests if t.visibility != "hidden"]
     hidden = [t for t in q.tests if t.visibility == "hidden"]
     parts = [f"<p class=\"note\">{for_html(n)}</p>" for n in q.notes]
     parts.append("<ul>")
-    for t in shown:
+    for t in sorted(shown, key=lambda t: t.passed):   # failed first, each group in its order
         status = "passed" if t.passed else "failed"
         parts.append(f"<li><span class=\"{status}\">{status}</span>: {for_html(t.name, newlines=False)} "
                      f"({points(t.score)} / {points(t.max_score)})"
-                     + (f"<div class=\"fb\">{for_html(t.feedback)}</div>" if feedback and t.feedback else "") + "</li>")
+                     + (f"<div class=\"fb\">{for_html(t.feedback)}</div>" if feedback and t.feedback and not t.passed
+                        else "") + "</li>")
     if hidden:
         parts.append(f"<li>{len(hidden)} hidden check(s): {points(sum(t.score for t in hidden))} / "
                      f"{points(sum(t.max_score for t in hidden))}</li>")
     parts.append("</ul>")
     return "".join(parts)
+
+
+def _summary(result: SubmissionResult) -> str:
+    """The table of every question's score, each linking to its section."""
+    e = for_html
+    rows = []
+    for q in result.questions:
+        failed = sum(not t.passed for t in q.tests)
+        state = "full marks" if q.score >= q.max_score - 1e-9 else f"{failed} check(s) failed"
+        rows.append(f"<tr><td><a href=\"#{e(q.id)}\">{e(q.id)}</a></td><td>{e(q.title)}</td>"
+                    f"<td>{points(q.score)} / {points(q.max_score)}</td><td>{e(state)}</td></tr>")
+    return ("<table class=\"summary\"><tr><th>question</th><th></th><th>points</th><th></th></tr>"
+            + "".join(rows) + "</table>")
 
 
 def page(result: SubmissionResult, figures: Mapping) -> str:
@@ -90,7 +112,8 @@ def page(result: SubmissionResult, figures: Mapping) -> str:
     else:
         parts.append(f"<p><strong>Autograded total: {points(result.score)} / {points(result.max_score)}</strong>"
                      + (" (extra credit included)" if any(q.extra_credit for q in result.questions) else "") + "</p>")
-    parts += [f"<p class=\"note\">{e(n)}</p>" for n in result.notes]
+    if not result.failure:
+        parts.append(_summary(result))
     parts.append("<p class=\"note\">The pictures show what your functions returned on the public data "
                  "(the data of the notebooks), not on the hidden tests' scenes; they are not graded.</p>")
     done = set()
@@ -98,12 +121,14 @@ def page(result: SubmissionResult, figures: Mapping) -> str:
         done.add(q.id)
         head = f"{q.id} {q.title}: {points(q.score)} / {points(q.max_score)}" + (" (extra credit)" if q.extra_credit else "")
         figure = figure_html(figures[q.id]) if q.id in figures else ""
-        parts.append(f"<section class=\"q\" id=\"{e(q.id)}\">{figure}<div class=\"verdict\"><h2>{e(head)}</h2>"
-                     f"{verdict_lines(q)}</div></section>")
+        parts.append(f"<section class=\"q\" id=\"{e(q.id)}\"><h2>{e(head)}</h2>{verdict_lines(q)}{figure}</section>")
     for qid in figures:
         if qid not in done:
-            parts.append(f"<section class=\"q\" id=\"{e(qid)}\">{figure_html(figures[qid])}<div class=\"verdict\">"
-                         f"<h2>{e(qid)}</h2></div></section>")
+            parts.append(f"<section class=\"q\" id=\"{e(qid)}\"><h2>{e(qid)}</h2>{figure_html(figures[qid])}</section>")
+    if result.notes:
+        # About the files and helpers of the submission: useful, and not what a student reads first.
+        parts.append(f"<details class=\"notes\"><summary>Notes about your files and helpers ({len(result.notes)})"
+                     "</summary>" + "".join(f"<p class=\"note\">{e(n)}</p>" for n in result.notes) + "</details>")
     parts.append("</body></html>")
     return "\n".join(parts)
 

@@ -6,8 +6,10 @@ Formatting"; gradescope/autograder_samples pull request 92) lets each test say h
 "ansi" or "html", which Gradescope renders after sanitising it ("you may not be able to use all
 html elements").  So a question's picture is a test of its own with ``output_format`` "html": an
 ``<img>`` whose ``src`` is the PNG as a ``data:`` URI and whose ``alt`` is ``Picture.alt``, its
-title and measures, and the question's verdict lines (check names, passed or failed, points;
-their feedback is in the checks' own tests).  Whether the sanitiser keeps ``data:`` images is not
+title and measures (in words), and the question's verdict lines (check names, passed or failed,
+points; their feedback is in the checks' own tests).  The image is a smaller copy of the PNG
+(``compact``: at most ``MAX_WIDTH`` pixels wide, as JPEG or as a PNG of few colours, whichever is
+smaller), so that one student's results.json stays within a few hundred kB.  Whether the sanitiser keeps ``data:`` images is not
 documented: when it does not, the student still reads the title, the alt text, the measures and
 the verdicts.  The test has no score and no max_score (it counts for nothing); its status is
 its question's (passed at full marks), so that Gradescope colours it as the checks beside it.
@@ -22,6 +24,7 @@ gets no picture.
 from __future__ import annotations
 
 import base64
+import io
 import sys
 import traceback
 from collections.abc import Mapping
@@ -32,10 +35,30 @@ from .feedback_page import figure_html, verdict_lines
 from .pictures import figures_of
 from .results import SubmissionResult
 
-__all__ = ["MAX_PNG_BYTES", "STRICTNESS", "add_pictures", "picture_tests"]
+__all__ = ["MAX_PNG_BYTES", "MAX_WIDTH", "STRICTNESS", "add_pictures", "compact", "picture_tests"]
 
 STRICTNESS = ("visible", "after_due_date", "after_published", "hidden")
 MAX_PNG_BYTES = 1_500_000   # a larger figure is named, not embedded (results.json stays small)
+MAX_WIDTH = 800             # pixels of a picture's copy in results.json
+
+
+def compact(png: bytes) -> tuple[str, bytes]:
+    """(MIME type, bytes) of a smaller copy of ``png`` for results.json: at most ``MAX_WIDTH``
+    pixels wide, JPEG (photographs: the temple's images) or a PNG of 64 colours (plots), whichever
+    is smaller; the PNG itself when it is already smaller or cannot be read."""
+    try:
+        from PIL import Image
+
+        image = Image.open(io.BytesIO(png)).convert("RGB")
+        if image.width > MAX_WIDTH:
+            image = image.resize((MAX_WIDTH, max(1, round(image.height * MAX_WIDTH / image.width))), Image.LANCZOS)
+        jpeg, few = io.BytesIO(), io.BytesIO()
+        image.save(jpeg, "JPEG", quality=70, optimize=True)
+        image.quantize(colors=64).save(few, "PNG", optimize=True)
+    except Exception:  # noqa: BLE001 - a copy that cannot be made: the PNG as it is
+        return "image/png", png
+    return min((("image/png", png), ("image/jpeg", jpeg.getvalue()), ("image/png", few.getvalue())),
+               key=lambda it: len(it[1]))
 
 
 def _strictest(visibilities) -> str:
@@ -62,7 +85,8 @@ def picture_tests(data: dict, result: SubmissionResult, figures: Mapping) -> lis
             "number": f"{q.id[1:]}.0",
             "status": "passed" if q.score >= q.max_score - 1e-9 else "failed",  # the question's, for its colour
             "output": ("<p>What your functions returned on the public data (not graded):</p>"
-                       + figure_html(figure) + verdict_lines(q, feedback=False)),
+                       + figure_html(figure, None if isinstance(figure, str) else compact(figure.png))
+                       + verdict_lines(q, feedback=False)),
             "output_format": "html",
             "visibility": _strictest(str(tests[k].get("visibility", "visible")) for k in mine),
         }))

@@ -46,7 +46,7 @@ import numpy as np
 from core import wire
 
 __all__ = ["LIMITS", "MAX_PNG", "NOT_DRAWN", "SECONDS", "OffRunFailed", "PictureFailed", "contract", "decode",
-           "draw_all", "drawn", "figures_of", "finite_measures", "run_public"]
+           "draw_all", "drawn", "figures_of", "finite_measures", "measures_in_words", "run_public"]
 
 NOT_DRAWN = "figure not drawn: "
 SECONDS = 10.0          # CPU seconds of one call of a picture (times time_scale)
@@ -336,4 +336,21 @@ def finite_measures(picture) -> dict[str, float]:
             continue
         if math.isfinite(v):
             out[str(k)] = v
+    return out
+
+
+def measures_in_words(picture) -> list[tuple[str, str]]:
+    """(what it measures, its value in its unit) of each finite measure of ``picture``, as the
+    pictures module names them (``measure_in_words``); the key and the number when it has none."""
+    question = str(getattr(picture, "question", ""))
+    try:
+        words = contract().measure_in_words
+    except (ImportError, AttributeError):
+        words = None
+    out = []
+    for key, value in finite_measures(picture).items():
+        try:
+            out.append(tuple(map(str, words(question, key, value))) if words else (key, f"{value:.4g}"))
+        except Exception:  # noqa: BLE001 - a measure the module cannot name is shown as it is
+            out.append((key, f"{value:.4g}"))
     return out

@@ -73,6 +73,8 @@ def test_each_channel_shows_every_picture(graded, tmp_path):
     pictures = {t["name"].split(" ", 1)[0]: t for t in data["tests"] if " picture: " in t["name"]}
     assert set(graded_ids) <= set(pictures)
     assert all("<img" in pictures[q]["output"] for q in graded_ids)
+    size = len(json.dumps(data))
+    assert size < 400_000, f"results.json is {size // 1000} kB"   # a few hundred kB a student
     # nbgrader's feedback: the verdict, then the figure as an image output
     for q in graded_ids:
         outputs = nbgrader_pictures.cell_outputs(f"{q}: verdict", figures[q])

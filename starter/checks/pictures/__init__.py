@@ -27,10 +27,11 @@ import numpy as np
 
 from . import q2_eightpoint, q3_essential, q3_findM2, q3_triangulate, q4_matches, q4_temple, q5_bundle, q6_multiview
 from .arrays import PictureRunError
+from .measures import label as _label, shown as _shown
 from .picture import Picture
 
-__all__ = ["FUNCTIONS", "QUESTION_OF", "QUESTIONS", "Picture", "PictureRunError", "draw", "public_outputs", "show",
-           "show_after_check"]
+__all__ = ["FUNCTIONS", "QUESTION_OF", "QUESTIONS", "Picture", "PictureRunError", "draw", "measure_in_words",
+           "public_outputs", "show", "show_after_check"]
 
 _MODULES = {
     "Q2": q2_eightpoint, "Q3.1": q3_essential, "Q3.2": q3_triangulate, "Q3.3": q3_findM2, "Q4.1": q4_matches, "Q4.2": q4_temple,
@@ -64,6 +65,11 @@ def public_outputs(question: str, functions: Mapping[str, Callable], root=None) 
         raise ValueError(f"functions: {question} needs {needed}")
     out = module.run(functions, root)
     return {str(k): np.array(v, dtype=np.float64) for k, v in out.items()}
+
+
+def measure_in_words(question: str, key: str, value: float) -> tuple[str, str]:
+    """(what measure ``key`` of ``question``'s picture is, in words; ``value`` in its unit)."""
+    return _label(question, key)[0], _shown(question, key, value)
 
 
 def draw(question: str, outputs: Mapping[str, np.ndarray], root=None) -> Picture:

@@ -1,0 +1,75 @@
+"""The feedback page reads in a minute: the total and every question's score first, each
+question's failed checks in words before its picture, the picture's measures named in words with
+their units (never the keys the pictures module stores), the notes about files and helpers folded
+at the end; and Gradescope's copy of a picture is small."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+from autograder import feedback_page, gradescope_pictures
+from autograder.results import QuestionResult, SubmissionResult, TestResult
+from starter.checks.pictures import Picture
+
+NOTES = tuple(f"q{k}.ipynb: helper{k} is defined 2 times; the last one (cell {k}) is used." for k in range(12))
+
+
+def _png(width: int = 1300, height: int = 620) -> bytes:
+    """A plot-like PNG with a photograph-like panel (noise), as the pictures are."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width / 100, height / 100), dpi=100)
+    left, right = fig.subplots(1, 2)
+    left.imshow(np.random.default_rng(0).uniform(size=(120, 160, 3)))
+    right.plot(np.linspace(0, 1, 50) ** 2, "o-")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def _result() -> SubmissionResult:
+    q2 = QuestionResult.of("Q2", [TestResult("rank 2", 4.0, 4.0, feedback="rank 2 (s3/s2 = 1e-17)"),
+                                  TestResult("F fits the matches", 0.0, 6.0, feedback="mean distance 3.2 px (goal <= 1 px)")])
+    q33 = QuestionResult.of("Q3.3", [TestResult("the right camera", 8.0, 8.0), TestResult("C2 = K2 M2", 2.0, 2.0)])
+    return SubmissionResult((q2, q33), notes=NOTES)
+
+
+def _figures() -> dict:
+    m2 = {"refineF_off_mean_distance_px": 3.25, "s3_over_s2": 2e-3, "mean_distance_px": 3.2}
+    m33 = {"chosen": 0.0, "right": 2.0, "chosen_share_in_front": 0.25}
+    return {"Q2": Picture("Q2", "eightpoint: your epipolar lines", _png(), "Your lines.", m2),
+            "Q3.3": Picture("Q3.3", "findM2: the four candidates", _png(), "The candidates.", m33)}
+
+
+def test_the_questions_come_first_and_the_notes_last_folded():
+    page = feedback_page.page(_result(), _figures())
+    total, summary = page.index("Autograded total"), page.index('class="summary"')
+    first_section, notes = page.index('<section class="q"'), page.index("<details")
+    assert total < summary < first_section < notes
+    assert page.index('href="#Q2"') < page.index('href="#Q3.3"') < first_section
+    assert all(page.index(n.split(":")[0]) > notes for n in NOTES), "a note stands before the questions"
+    # in a question: the failed check and its feedback before the passed one and before the picture
+    q2 = page[page.index('id="Q2"'):page.index('id="Q3.3"')]
+    assert q2.index("F fits the matches") < q2.index("rank 2") < q2.index("<img")
+    assert "goal &lt;= 1 px" in q2 or "goal <= 1 px" in q2
+
+
+def test_measures_are_named_in_words_with_their_units():
+    page = feedback_page.page(_result(), _figures())
+    for key in ("refineF_off_mean_distance_px", "s3_over_s2", "chosen_share_in_front"):
+        assert key not in page, key
+    assert "with refineF switched off, mean distance of the true matches to your epipolar lines" in page
+    assert "3.25 px" in page and "25 %" in page
+    assert "M2s[:, :, 0]" in page and "M2s[:, :, 2]" in page   # candidates named as the code indexes them
+    assert "width:100%" in page.replace(" ", "")                # pictures at the page's full width
+
+
+def test_gradescopes_copy_of_a_picture_is_small():
+    png = _png()
+    mime, data = gradescope_pictures.compact(png)
+    assert mime in ("image/png", "image/jpeg") and len(data) < len(png) / 2, (len(data), len(png))
+    from PIL import Image
+
+    assert Image.open(io.BytesIO(data)).width <= gradescope_pictures.MAX_WIDTH
