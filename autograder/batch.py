@@ -346,6 +346,11 @@ class _Batch:
         canary = (f"Canary: the answer key got full marks ({report.score:g} points, base total "
                   f"{report.max_score:g}) in {report.seconds:.1f} s at the {level} level.{weak}")
         self.note = "\n".join(x for x in (self.note, canary) if x)
+        changed = report.points_changed()
+        if changed:
+            # An extra check adds its points to its question: the instructor decides, and is told.
+            self.note += "\n\n**Points differ from the handout's:**\n\n" + "\n".join(f"- {line}" for line in changed)
+            print("warning: points differ from the handout's: " + "; ".join(changed), file=sys.stderr)
         if level == "uid" and self.jobs > 1:
             # Without namespaces, /dev/shm and other users' world-writable folders are shared:
             # two submissions graded at the same time could pass each other files there.

@@ -17,8 +17,10 @@ import re
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+
+from core.manifest import QUESTIONS, question
 
 from .key import write_key_submission
 from .results import SubmissionResult
@@ -51,12 +53,26 @@ class CanaryFailed(RuntimeError, ValueError):
 
 @dataclass(frozen=True)
 class CanaryReport:
-    """The key's grading: score and max_score (base points), seconds, the sandbox's isolation."""
+    """The key's grading: score and max_score (base points), seconds, the sandbox's isolation;
+    totals: each autograded question's points as its checks add up (an instructor's extra check
+    adds its points to its question's)."""
 
     score: float
     max_score: float
     seconds: float
     isolation: dict
+    totals: dict = field(default_factory=dict)
+
+    def points_changed(self) -> list[str]:
+        """One line per question whose checks add up to other points than the handout's, with the
+        new base total; empty when every question keeps its points."""
+        lines = [f"{qid}: its checks add up to {total:g} points; the handout gives it {question(qid).points}"
+                 for qid, total in self.totals.items() if abs(total - question(qid).points) > _TOL]
+        if lines:
+            handout = sum(q.points for q in QUESTIONS if not q.by_hand and not q.extra_credit)
+            lines.append(f"the autograded base total (extra credit aside) is {self.max_score:g} points; "
+                         f"the handout's is {handout}")
+        return lines
 
 
 def check(grade: Callable[..., SubmissionResult], sandbox: Sandbox, *,
@@ -99,7 +115,9 @@ def check(grade: Callable[..., SubmissionResult], sandbox: Sandbox, *,
         lost = _lost(result)
         if lost:
             raise CanaryFailed(_message(sandbox, lost, staff, result))
-        return CanaryReport(result.score, result.max_score, time.monotonic() - start, sandbox.isolation.as_dict())
+        totals = {q.id: q.max_score for q in result.questions if q.tests and not q.by_hand}
+        return CanaryReport(result.score, result.max_score, time.monotonic() - start, sandbox.isolation.as_dict(),
+                            totals)
     finally:
         leftovers.release(scratch, scratch_fd)
 

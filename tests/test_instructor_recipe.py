@@ -96,3 +96,9 @@ def test_class_graded_with_the_new_check_through_the_cli(setup):
     assert "Q2 eightpoint is not the identity" not in names
     # The kit's own checks ran too: full marks on every question, plus the new points.
     assert data["score"] == pytest.approx(90 + 3)
+    # The new points are the instructor's decision, and it is said where they look: Q2 is now 13.
+    assert "points differ from the handout's" in proc.stderr
+    summary = (out / "summary.md").read_text()
+    assert "**Points differ from the handout's:**" in summary
+    assert "- Q2: its checks add up to 13 points; the handout gives it 10" in summary
+    assert "- the autograded base total (extra credit aside) is 78 points; the handout's is 75" in summary
