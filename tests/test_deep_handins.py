@@ -21,6 +21,8 @@ from core.files import MAX_DEPTH, list_files
 
 DEPTH = 3000
 
+pytestmark = pytest.mark.slow   # thousands of folders made and removed: the full tier's
+
 
 def _deep(top: Path, depth: int = DEPTH) -> None:
     """A chain of ``depth`` folders named "d" under ``top``, a notebook at its bottom."""
