@@ -11,7 +11,7 @@ the hidden tests' own ``judge_q2``:
   SVD or eigh; no rank-2 step of its own when refineF, rank 2 switched off too, comes before
   unscaling) gets 10/10 under every secret;
 - the polished transposed F (the design matrix of F^T, then refineF, then unscaling; also with
-  refineF after unscaling) loses Q2 under every secret, named "F transposed";
+  refineF after unscaling) keeps at most half of Q2 under every secret, named "F transposed";
 - every other mistake of the catalogue (transposed, rank 3 without refineF, not unscaled, unscaled
   the wrong way, x/y swapped, uint16 wrap-around; with and without refineF) loses Q2 and is named, under the
   first secrets (tests/test_secret_sweep.py judges them under all its secrets).
@@ -39,7 +39,18 @@ SECRETS = breadth.secrets("goal-secret")   # CI's breadth, 20 with HW4_SWEEP_ALL
 # The other mistakes of the catalogue (each also judged by tests/test_secret_sweep.py) under the
 # first few secrets: refineF's cost (about 0.2 s a call) makes every secret count.
 MISTAKE_SECRETS = SECRETS[:5]
-POINTS = {"fits": 5, "rank": 2, "exact": 2, "uint16": 1}   # the markers of autograder/hidden/test_fundamental.py
+@lru_cache(maxsize=None)
+def _points() -> dict:
+    """The points of each Q2 test: the markers of autograder/hidden/test_fundamental.py (read when
+    a test runs: importing it registers no "points" marker here)."""
+    from autograder.hidden import test_fundamental as tf
+
+    tests = {"fits": tf.test_F_fits_the_true_matches, "rank": tf.test_F_has_rank_2,
+             "exact": tf.test_noise_free_matches_give_an_exact_F, "uint16": tf.test_uint16_points_work_as_float_ones}
+    return {k: float(next(m.args[0] for m in f.pytestmark if m.name == "points")) for k, f in tests.items()}
+
+
+HALF_OF_Q2 = 0.5   # the share of Q2 the polished transposed F may keep at most
 
 VALID = {
     "answer key (refineF before unscaling)": ("program", "key_full_marks"),
@@ -120,7 +131,7 @@ def _grade(fn, p) -> tuple[dict, dict, dict]:
 
 
 def _score(grades: dict) -> float:
-    return sum(POINTS[k] * grades[k][0] for k in POINTS)
+    return sum(points * grades[k][0] for k, points in _points().items())
 
 
 def _ratios(p, F, F_off) -> dict:
@@ -202,6 +213,8 @@ def _judge_secret(secret: str) -> dict:
         named = {m.code for _, _, ms in grades.values() for m in ms}
         if score >= 10 - 1e-9:
             out["problems"].append(f"{secret}: mistake {name} keeps full Q2")
+        elif name in POLISHED_TRANSPOSED and score > HALF_OF_Q2 * sum(_points().values()) + 1e-9:
+            out["problems"].append(f"{secret}: mistake {name} keeps {score:g} of Q2's 10 (more than half)")
         elif code not in named:
             out["problems"].append(f"{secret}: mistake {name} loses Q2 but {code} is not named (named: {named})")
         out["problems"] += [f"{secret}: mistake {name} keeps {grades[k][0]:.2f} of the {k} test"

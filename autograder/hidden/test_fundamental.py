@@ -8,12 +8,16 @@ F is defined up to scale and sign, and several answers are right (refineF or not
   the larger), for F as returned and for F with refineF switched off (the goal is FIT_FACTOR times
   the reference's distance without refineF at least, so every valid method meets it either way;
   a design matrix built for F transposed does not once refineF stops polishing it);
+  The hidden scenes' cameras share K and turn little, so their F is nearly skew-symmetric and
+  their matches cannot tell F from F transposed; each is therefore also given with camera 2's
+  intrinsics changed (``cases.fundamental._OTHER_K2``: zoomed out, principal point moved), where
+  the transposed true F lies at least 1.5 goals off;
 - rank 2, and the data files' uint16 points give the F of the same points as float: counted only
-  where F fits the scene (a zero or constant matrix earns nothing);
+  where F fits the scene, as returned and with refineF off (a zero or constant matrix earns
+  nothing, nor does a transposed F polished into fitting);
 - noise-free matches (several scenes) give an exact F, to EXACT_TOL * M; the catalogue then names
-  what went wrong.  This is the sharp test of the method, so it weighs most (4 of 10): noisy
-  matches cannot tell F from a transposed F where F is nearly skew-symmetric (little rotation
-  between the views), and refineF polishes the rest.
+  what went wrong.  This is the sharp test of the method, so it weighs most (4 of 10): refineF
+  polishes a transposed F into fitting noisy matches.
 
 Every input is given twice: as it is, and with refineF switched off inside the sandbox for that
 request (``core.refine_switch``, the switch the public self-check throws too; the FAQ's "comment
@@ -107,16 +111,16 @@ def judge_q2(p, F: dict, F_off: dict) -> dict:
     the student's F (3, 3) or the Malformed saying why there is none, as returned and with refineF
     switched off.  Pure: the tests below and tests/test_fundamental_goals.py grade with it.
     """
-    # Rank 2 and uint16 count where F as returned fits (a constant answer earns nothing); the fit
-    # check itself also asks it of F with refineF off.
+    # Rank 2 and uint16 count where F fits as returned and with refineF off (a constant answer
+    # earns nothing, nor does a transposed F that refineF polished into fitting).
     fits = {c: jf.fit(F[c], c.eval1, c.eval2, c.goal, c.M) for c in p.cases if not isinstance(F[c], Malformed)}
     fits_both = {c: _fit_both(c, v, F_off[c]) for c, v in fits.items()}
     exact = {c: (_judge(jf.exact_fit, F[c], c.eval1, c.eval2, c.M), _judge(jf.exact_fit, F_off[c], c.eval1, c.eval2, c.M))
              for c in p.exact}
     # The noise-free matches name a mistake best: as returned first, then with refineF off.
     named = _mistakes(*(on for on, _ in exact.values())) or _mistakes(*(off for _, off in exact.values()))
-    return {"fits": _fits(p, F, fits_both, named), "rank": _rank(p, F, F_off, fits), "exact": _exact(exact, named),
-            "uint16": _uint16(p, F, F_off, fits)}
+    return {"fits": _fits(p, F, fits_both, named), "rank": _rank(p, F, F_off, fits_both), "exact": _exact(exact, named),
+            "uint16": _uint16(p, F, F_off, fits_both)}
 
 
 def _fit_both(case, on, F_off):
