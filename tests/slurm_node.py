@@ -112,8 +112,10 @@ class SlurmNode:
                 raise TimeoutError(f"timed out waiting for {what}: {self.logs()}")
             time.sleep(0.3)
 
-    def run(self, *argv: str, timeout: float = 30.0) -> subprocess.CompletedProcess:
-        return subprocess.run(list(argv), env=self.env, capture_output=True, text=True, timeout=timeout)
+    def run(self, *argv: str, timeout: float = 30.0, env: dict | None = None) -> subprocess.CompletedProcess:
+        """A client command (``env``: more variables, which sbatch passes on to the jobs)."""
+        return subprocess.run(list(argv), env={**self.env, **(env or {})}, capture_output=True, text=True,
+                              timeout=timeout)
 
     def job_state(self, job: str) -> list[str]:
         """The states of a job's tasks (squeue while they are known to the controller)."""

@@ -10,7 +10,10 @@ settings:
 - a real one-node Slurm (Debian's slurm-wlm and munge, started here in the test's own folder) runs
   the generated ``sbatch --array`` and its dependent merge job;
 - a manifest, a submission or an environment that changed after prepare is refused before
-  anything is set up (no grading: fast);
+  anything is set up (no grading: fast), and so is a node that cannot give the sandbox level the
+  class asks for (before anything is recorded);
+- the Slurm array lists only the shards still to do, and a merge refuses two results of one
+  submission;
 - the Kubernetes Jobs load into the official client's ``V1Job`` without loss (no cluster).
 """
 
@@ -39,6 +42,7 @@ from autograder.cluster.shard import grade_shard
 from autograder.cluster.slurm import _ranges, write_slurm
 from autograder.config import configuration, load_config, quick_config
 from autograder.journal import submission_digest, unique_names
+from autograder.sandbox import IsolationRefused
 from core.paths import KIT_ROOT
 from core.text import points
 
@@ -91,9 +95,12 @@ def rows(data: bytes) -> list[list[str]]:
 def test_shards_and_merge_give_the_one_batch_grades_even_after_a_killed_shard(tmp_path, class_paths, config_file,
                                                                                 one_batch):
     root = tmp_path / "class"
-    config = load_config(config_file)
-    manifest = prepare(class_paths, root, SHARDS, config=config, pictures=False, canary=False)
+    code, text = finished(cli("prepare", *class_paths, "--root", root, "--shards", SHARDS, "--config", config_file,
+                              "--no-pictures", "--quiet"))
+    assert code == 0 and "canary 90.0 points" in text, text[-3000:]
+    manifest = load_manifest(root)
     assert [s["name"] for s in manifest.owned(0)] == [CLASS[0], CLASS[2]]
+    assert manifest.data["environment"]["configuration_key"] == manifest.key
     assert grade_shard(root, 1, SHARDS, progress=False, canary=False)  # shard 1 done, in this process
 
     # Shard 0 from the command line, killed (SIGKILL: a node lost) with a submission in flight.
@@ -158,13 +165,11 @@ def slurm(tmp_path_factory):
 @pytest.mark.slow
 def test_slurm_runs_the_generated_array_and_its_merge(tmp_path, slurm, class_paths, config_file, one_batch):
     root = tmp_path / "class"
-    code, text = finished(cli("prepare", *class_paths, "--root", root, "--shards", SHARDS, "--config", config_file,
-                              "--no-pictures", "--quiet"))
-    assert code == 0, text[-3000:]
+    prepare(class_paths, root, SHARDS, config=load_config(config_file), pictures=False, canary=False)
     code, text = finished(cli("slurm", root, "--mem", "1G", "--time", "00:15:00"))
     assert code == 0, text
     submit = root / "slurm" / "submit.sh"
-    done = slurm.run("sh", str(submit))
+    done = slurm.run("sh", str(submit), env={"PYTHONPATH": str(KIT_ROOT)})  # the jobs grade with this kit
     assert done.returncode == 0, done.stderr
     jobs = done.stdout.split()  # "grading: job N; merge: job M"
     array, merge_job = jobs[2].rstrip(";"), jobs[-1]
@@ -195,10 +200,10 @@ def little_class(folder: Path, n: int = 3) -> list[Path]:
     return paths
 
 
-def prepared(root: Path, paths: list[Path], config_file: Path, shards: int = SHARDS):
+def prepared(root: Path, paths: list[Path], config_file: Path, shards: int = SHARDS, isolation: str = "auto"):
     """A manifest as prepare writes it, without making hidden inputs or grading the canary."""
     subs = [{"name": n, "path": str(p), "sha256": submission_digest(p)} for n, p in zip(unique_names(paths), paths)]
-    options = {"config": str(config_file), "extra_tests": [], "official_data": None, "isolation": "auto",
+    options = {"config": str(config_file), "extra_tests": [], "official_data": None, "isolation": isolation,
                "allow_weak": False, "pictures": False, "jobs": 1}
     root.mkdir(mode=0o700, exist_ok=True)
     return write_manifest(root, subs, shards, configuration(load_config(config_file)), options)
@@ -239,6 +244,19 @@ def test_a_manifest_submission_or_environment_that_changed_is_refused(tmp_path, 
     assert not (root / "out").exists()
 
 
+@pytest.mark.slow
+def test_a_node_without_the_sandbox_level_the_class_asks_for_refuses_before_grading(tmp_path, config_file):
+    # "basic" without --allow-weak-isolation: a level no node may grade at, as a node without
+    # namespaces is for a class prepared with --isolation namespaces.
+    root = tmp_path / "class"
+    manifest = prepared(root, little_class(tmp_path / "subs"), config_file, isolation="basic")
+    with pytest.raises(IsolationRefused, match="basic"):
+        grade_shard(root, 0, SHARDS, progress=False)
+    folder = manifest.shard_folder(0)
+    assert not list(folder.glob("*/grading.json")) and not list((folder / ".inflight").glob("*"))
+    assert not shard_status(manifest)[0].stamped
+
+
 def test_the_command_line_refuses_a_shard_with_settings_of_its_own(tmp_path, config_file):
     root = tmp_path / "class"
     prepared(root, little_class(tmp_path / "subs"), config_file)
@@ -273,6 +291,10 @@ def test_the_slurm_array_lists_only_the_shards_still_to_do(tmp_path, config_file
     assert "#SBATCH --array=0,2\n" in write_slurm(root)["grade"].read_text()
     report = merge(root, review=False)
     assert report.graded == [s["name"] for s in manifest.owned(1)] and report.incomplete == [0, 2]
+    sub = manifest.owned(1)[0]  # a result in a second shard's folder too: which one counts is unknown
+    stamp(manifest.shard_folder(0) / sub["name"], sub, manifest.key)
+    with pytest.raises(ValueError, match=f"several for {sub['name']}"):
+        merge(root, review=False)
     assert [_ranges(x) for x in ([0, 1, 2, 5], [3], [0, 2, 3, 4, 7, 8])] == ["0-2,5", "3", "0,2-4,7-8"]
 
 

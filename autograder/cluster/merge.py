@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 import shutil
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from core.untrusted import for_markdown
@@ -65,7 +65,8 @@ def merge(root: str | Path, *, review: bool = True) -> MergeReport:
                 not_graded.append(sub["name"])
                 continue
             target = _copy(where[0], out / sub["name"])
-            records.append(record_of(target, stamped(target, sub["sha256"], manifest.key)))
+            # Graded by the shards, the class's batch: summary.md counts them as graded, not resumed.
+            records.append(replace(record_of(target, stamped(target, sub["sha256"], manifest.key)), skipped=False))
         incomplete = [s.index for s in shard_status(manifest) if not s.complete]
         write_grades_csv(out / "grades.csv", records)
         write_configuration(out, manifest.configuration, {r.isolation for r in records if r.isolation})
