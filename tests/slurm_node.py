@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 DAEMONS = ("munged", "slurmctld", "slurmd")
-CLIENTS = ("sbatch", "squeue", "sinfo", "sacct")
+CLIENTS = ("sbatch", "squeue", "sinfo", "scontrol")
 
 
 def why_not() -> str | None:
