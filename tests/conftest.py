@@ -132,11 +132,12 @@ def pytest_unconfigure(config):
 # processes taking the next file as they finish one, a long file started last would leave the
 # other process idle at the end.  The other files follow in their usual order.
 COSTLIEST_FIRST = (
-    "test_batch.py", "test_autograder_grading.py", "test_secret_sweep.py", "test_real_styles.py", "test_channels.py",
+    "test_sandbox_attacks.py", "test_cluster.py", "test_batch.py", "test_autograder_grading.py", "test_secret_sweep.py", "test_real_styles.py", "test_channels.py",
     "test_sandbox_leaks.py", "test_gradescope.py", "test_judgments_agree.py", "test_fundamental_goals.py",
     "test_hidden_draws.py", "test_hostile_outputs.py", "test_call_conventions.py", "test_refine_switch.py",
     "test_nbgrader_course.py", "test_fail_closed.py", "test_notebooks.py", "test_colab_like.py",
     "test_handin_layouts.py", "test_matching_easy_points.py", "test_pictures.py", "test_autograder_sandbox.py",
+    "test_sandbox_survivors.py", "test_deep_handins.py",
 )
 
 
