@@ -65,10 +65,31 @@ def figure_html(figure, image: tuple[str, bytes] | None = None) -> str:
             + (f"<table>{rows}</table>" if rows else "") + "</figure>")
 
 
-def verdict_lines(q: QuestionResult, *, feedback: bool = True) -> str:
+LIKELY = "Likely mistake: "   # how a check's feedback names a catalogue mistake (autograder.hidden.feedback)
+
+
+def _once(text: str, qid: str, said: dict | None) -> str:
+    """``text`` with each "Likely mistake: <name>." said in full the first time only on the page
+    (``said``: name -> the question where it was said; None: nothing is shortened)."""
+    if said is None:
+        return text
+    out = []
+    for line in text.splitlines():
+        if line.startswith(LIKELY):
+            name = line[len(LIKELY):].split(". ", 1)[0].rstrip(".")
+            if name in said:
+                line = f"{LIKELY}{name} (the same cause as above, under {said[name]})"
+            else:
+                said[name] = qid
+        out.append(line)
+    return "\n".join(out)
+
+
+def verdict_lines(q: QuestionResult, *, feedback: bool = True, said: dict | None = None) -> str:
     """The question's verdict lines as HTML: its failed checks first (points, and with
     ``feedback`` what was measured and expected, in words), then the passed ones, one line each,
-    then the hidden checks summed up."""
+    then the hidden checks summed up.  ``said``: the likely mistakes named earlier on the page
+    (see :func:`_once`): one cause is explained once."""
     shown = [t for t in q.tests if t.visibility != "hidden"]
     hidden = [t for t in q.tests if t.visibility == "hidden"]
     parts = [f"<p class=\"note\">{for_html(n)}</p>" for n in q.notes]
@@ -77,7 +98,8 @@ def verdict_lines(q: QuestionResult, *, feedback: bool = True) -> str:
         status = "passed" if t.passed else "failed"
         parts.append(f"<li><span class=\"{status}\">{status}</span>: {for_html(t.name, newlines=False)} "
                      f"({points(t.score)} / {points(t.max_score)})"
-                     + (f"<div class=\"fb\">{for_html(t.feedback)}</div>" if feedback and t.feedback and not t.passed
+                     + (f"<div class=\"fb\">{for_html(_once(t.feedback, q.id, said))}</div>"
+                        if feedback and t.feedback and not t.passed
                         else "") + "</li>")
     if hidden:
         parts.append(f"<li>{len(hidden)} hidden check(s): {points(sum(t.score for t in hidden))} / "
@@ -116,12 +138,13 @@ def page(result: SubmissionResult, figures: Mapping) -> str:
         parts.append(_summary(result))
     parts.append("<p class=\"note\">The pictures show what your functions returned on the public data "
                  "(the data of the notebooks), not on the hidden tests' scenes; they are not graded.</p>")
-    done = set()
+    done, said = set(), {}
     for q in () if result.failure else result.questions:
         done.add(q.id)
         head = f"{q.id} {q.title}: {points(q.score)} / {points(q.max_score)}" + (" (extra credit)" if q.extra_credit else "")
         figure = figure_html(figures[q.id]) if q.id in figures else ""
-        parts.append(f"<section class=\"q\" id=\"{e(q.id)}\"><h2>{e(head)}</h2>{verdict_lines(q)}{figure}</section>")
+        parts.append(f"<section class=\"q\" id=\"{e(q.id)}\"><h2>{e(head)}</h2>{verdict_lines(q, said=said)}{figure}"
+                     "</section>")
     for qid in figures:
         if qid not in done:
             parts.append(f"<section class=\"q\" id=\"{e(qid)}\"><h2>{e(qid)}</h2>{figure_html(figures[qid])}</section>")

@@ -62,7 +62,12 @@ _draw_lock = threading.Lock()   # matplotlib's state is the process's: a batch's
 
 
 class PictureFailed(Exception):
-    """A student call of the picture step that did not return: its sentence is the picture's note."""
+    """A student call of the picture step that did not return: its sentence (``sentence``, also its
+    message) is the picture's note unless the pictures module goes on without that call."""
+
+    def __init__(self, sentence: str):
+        super().__init__(sentence)
+        self.sentence = sentence
 
 
 class OffRunFailed(Exception):
@@ -78,8 +83,10 @@ def contract():
 
 
 class _Proxies(Mapping):
-    """name -> a callable that calls the student's ``name`` in the sandbox; the first failure is
-    kept (a picture needs every call it makes).
+    """name -> a callable that calls the student's ``name`` in the sandbox; a call that fails raises
+    ``PictureFailed`` and the first failure is kept: it is the picture's note unless the pictures
+    module goes on without that call (Q4.2 through the matcher and triangulate when compute3D_pts
+    fails) and returns its outputs.
 
     Each call may use ``seconds`` of CPU time (times ``time_scale``); no call starts once the
     question's wall-clock backstop (``seconds`` times the session's ``wall_factor``, times
@@ -112,8 +119,6 @@ class _Proxies(Mapping):
 
     def _seconds(self) -> float:
         """CPU seconds the next call may use; PictureFailed once the question's wall-clock backstop passed."""
-        if self.failure is not None:
-            raise PictureFailed(self.failure)
         left = self.deadline - time.monotonic()
         if left <= 0.05 * self.scale:
             self.failure = (f"the picture's calls took more than {self.cpu * self.wall_factor:g} s of wall-clock "
@@ -194,18 +199,18 @@ def run_public(student, question: str, *, seconds: float = SECONDS, root=None, s
     proxies = _Proxies(student, pictures.FUNCTIONS.get(question, ()), seconds, signatures)
     try:
         outputs = pictures.public_outputs(question, proxies, root=root)
-    except PictureFailed:
-        pass
+    except PictureFailed as exc:
+        return {"error": NOT_DRAWN + (proxies.failure or exc.sentence)}
     except Exception as exc:  # noqa: BLE001 - the picture step never costs the grade
-        if proxies.failure is None:
-            if isinstance(exc, NotImplementedError):  # no picture designed for this question: none shown
-                return {}
-            refused = getattr(pictures, "PictureRunError", ())
-            if refused and isinstance(exc, refused):  # what came back cannot be drawn: the module says why
-                return {"error": NOT_DRAWN + str(exc)[:500]}
-            return {"error": f"{NOT_DRAWN}the grader could not run this picture ({type(exc).__name__})"}
-    if proxies.failure is not None:
-        return {"error": NOT_DRAWN + proxies.failure}
+        if isinstance(exc, NotImplementedError) and proxies.failure is None:  # no picture designed: none shown
+            return {}
+        refused = getattr(pictures, "PictureRunError", ())
+        if refused and isinstance(exc, refused):  # what came back cannot be drawn: the module says why
+            return {"error": NOT_DRAWN + str(exc)[:1000]}
+        if proxies.failure is not None:
+            return {"error": NOT_DRAWN + proxies.failure}
+        return {"error": f"{NOT_DRAWN}the grader could not run this picture ({type(exc).__name__})"}
+    # Outputs came back: the module went on without any call that failed (it says so in its picture).
     try:
         return {"outputs": wire.encode(_checked(outputs))}
     except (ValueError, TypeError) as exc:

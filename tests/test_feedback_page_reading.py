@@ -73,3 +73,14 @@ def test_gradescopes_copy_of_a_picture_is_small():
     from PIL import Image
 
     assert Image.open(io.BytesIO(data)).width <= gradescope_pictures.MAX_WIDTH
+
+
+def test_one_likely_mistake_per_cause():
+    line = "Likely mistake: depth tested in one camera only. Keep the candidate with the points in front of both."
+    q33 = QuestionResult.of("Q3.3", [TestResult("the right camera", 0.0, 8.0, feedback=f"case 1: wrong\n{line}"),
+                                     TestResult("C2 = K2 M2", 0.0, 2.0, feedback=line)])
+    q5 = QuestionResult.of("Q5", [TestResult("bundle adjustment", 0.0, 20.0, feedback=f"start from findM2\n{line}")])
+    page = feedback_page.page(SubmissionResult((q33, q5)), {})
+    assert page.count("Keep the candidate with the points in front of both") == 1
+    assert page.count("Likely mistake: depth tested in one camera only") == 3   # named where it costs points
+    assert "the same cause as above, under Q3.3" in page[page.index('id="Q5"'):]

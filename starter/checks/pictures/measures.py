@@ -51,7 +51,9 @@ _WORDS: dict[str, dict[str, tuple[str, str]]] = {
                               "scene units"),
              "share_near": ("your points near the true ones (within 5 % of the temple's size)", "%"),
              "scale": ("scale of that similarity", ""),
-             "n_finite": ("your points that are numbers", "")},
+             "n_finite": ("your points that are numbers", ""),
+             "route": ("how your points were got (0: compute3D_pts; 1: the 2022-24 compute3D_pts, with your "
+                       "findM2; 2: your matcher and triangulate)", "")},
     "Q5": {"start_error": ("reprojection error at the start", "px²"),
            "end_error": ("reprojection error of the M2 and w you returned, recomputed", "px²"),
            "o1_reported": ("the o1 you returned", "px²"),

@@ -9,7 +9,8 @@ It is run twice: on the default data, and on the self-check's twisted-pair case 
 shipped beside the checks, twisted_pair.json: matches near the epipoles where one wrong candidate
 puts every point in front of camera 1 and behind camera 2, and reprojects them best).
 
-Trusted side (:func:`draw`): the candidates are starter.camera2(E) for E = K2^T F K1; each is
+Trusted side (:func:`draw`): the candidates are M2s = starter.camera2(E) for E = K2^T F K1, named
+as code indexes them (``M2s[:, :, k]``, k = 0 to 3, never "candidate 1 to 4"); each is
 drawn seen from above (x to the right, z forward, camera-1 coordinates) with the points a linear
 triangulation gives under it (precomputed on the grader's side for both cases: a triangulation
 cannot ship, see .precomputed): green in front of both cameras, orange in front of camera 1 only,
@@ -112,7 +113,7 @@ def _panel(ax, k, M2c, pts: dict, chosen: bool, right: bool, label: str) -> None
     ax.set_ylim(zs.min() - pad, zs.max() + pad)
     ax.set_aspect("equal", adjustable="box")
     tags = ", ".join(t for t, on in (("yours", chosen), ("right", right)) if on)
-    ax.set_title(f"{label}candidate {k + 1}: {int(front.sum())} of {len(front)} in front of both"
+    ax.set_title(f"{label}M2s[:, :, {k}]: {int(front.sum())} of {len(front)} in front of both"
                  + (f" ({tags})" if tags else ""), fontsize=8)
     ax.set_xlabel("x", fontsize=7)
     ax.set_ylabel("z (camera 1's axis)", fontsize=7)
@@ -149,14 +150,14 @@ def _case(axes, M2, case: str, F, pts1, pts2, K1, K2, label: str, prefix: str, m
               f"{prefix}chosen_share_front_1_only": float(np.mean(ones[chosen]))
               if chosen >= 0 else float("nan"),
               f"{prefix}right_share_in_front": float(fronts[right].mean())})
-    shares = "; ".join(f"candidate {k + 1}: {int(f.sum())} of {n}" for k, f in enumerate(fronts))
+    shares = "; ".join(f"M2s[:, :, {k}]: {int(f.sum())} of {n}" for k, f in enumerate(fronts))
     if chosen >= 0:
         one = int(ones[chosen].sum())
-        yours = (f"yours is candidate {chosen + 1} (framed), with {int(fronts[chosen].sum())} of {n} points in front "
+        yours = (f"yours is M2s[:, :, {chosen}] (framed), with {int(fronts[chosen].sum())} of {n} points in front "
                  f"of both cameras and {one} in front of camera 1 only")
     else:
         yours = f"your M2 is none of the four (the nearest is {gap:.3g} degrees away)"
-    return f"Points in front of both cameras: {shares}; the right one is candidate {right + 1}; {yours}."
+    return f"Points in front of both cameras: {shares}; the right one is M2s[:, :, {right}]; {yours}."
 
 
 def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:

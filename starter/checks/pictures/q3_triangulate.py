@@ -18,7 +18,7 @@ import numpy as np
 
 from core.geometry import depths, project
 
-from .arrays import call, need, number, read
+from .arrays import call, count, maybe, need, number, read, said
 from .drawing import image
 from .picture import Picture, figure, fmt, to_picture
 from .public import need_truth, temple
@@ -37,7 +37,7 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
     s, d = need_truth(pub, "Q3.2"), pub.data
     value = call(functions["triangulate"], "triangulate", s.C1.copy(), d.pts1.copy(), s.C2.copy(), d.pts2.copy())
     w, err = read(read_w_err, value, len(d.pts1), name="triangulate")
-    return {"w": np.asarray(w, float), "err": number(err, "err")}
+    return {"w": np.asarray(w, float), "err": number(err, "err"), "err_size": count(err)}
 
 
 def _offsets(ax, pts, proj, magnify: float) -> None:
@@ -62,6 +62,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     n = len(d.pts1)
     w = need(outputs, "w", (n, 3))
     err = float(need(outputs, "err", (1,))[0])
+    err_count = float(outputs["err_size"][0]) if maybe(outputs, "err_size", (1,)) is not None else None
     with np.errstate(all="ignore"):
         q1, q2 = project(s.C1, w), project(s.C2, w)
         d1, d2 = np.linalg.norm(q1 - d.pts1, axis=1), np.linalg.norm(q2 - d.pts2, axis=1)
@@ -94,6 +95,6 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            + (f" (offsets magnified {magnify:g} times)" if magnify != 1 else "")
            + f": mean distance {fmt(m['mean_reprojection_px_1'], 'px')} in image 1 and "
            f"{fmt(m['mean_reprojection_px_2'], 'px')} in image 2; {front:.0%} of the points in front of both "
-           f"cameras. The err you returned is {fmt(err, 'px^2')}; the sum of squares of the distances drawn is "
+           f"cameras. Your {said('err', err, err_count, 'px^2')}; the sum of squares of the distances drawn is "
            f"{fmt(total, 'px^2')}.")
     return to_picture("Q3.2", "triangulate: your points reprojected", fig, alt, m)

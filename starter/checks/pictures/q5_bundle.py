@@ -20,7 +20,7 @@ import numpy as np
 from core.geometry import project
 
 from . import precomputed
-from .arrays import call, maybe, need, number, read
+from .arrays import call, count, maybe, need, number, read, said
 from .drawing import image
 from .picture import Picture, figure, fmt, to_picture
 from .public import need_truth, temple
@@ -32,7 +32,8 @@ FUNCTIONS = ("bundleAdjustment", "rodriguesResidual")
 
 
 def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
-    """{"M2": (3, 4), "w": (N, 3), "o1": (1,), "o2": (1,), "history": (K,) the objective recorded call by
+    """{"M2": (3, 4), "w": (N, 3), "o1": (1,), "o2": (1,) (NaN when not one number), "o1_size", "o2_size":
+    (1,) how many numbers each holds (1 for a number), "history": (K,) the objective recorded call by
     call (the calls of rodriguesResidual; when there are none, the objective scipy.optimize was given;
     K may be 0), "history_source": (1,) 0 for rodriguesResidual, 1 for the optimiser's objective,
     "residuals_start": (4N,) when rodriguesResidual is given}."""
@@ -53,7 +54,8 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
     source = 0 if recorded["residual"] else 1
     history = recorded["residual"] or recorded["optimiser"]
     out.update({"M2": np.asarray(M2, float), "w": np.asarray(w, float), "o1": number(o1, "o1"),
-                "o2": number(o2, "o2"), "history": np.asarray(history, float).reshape(-1),
+                "o2": number(o2, "o2"), "o1_size": count(o1), "o2_size": count(o2),
+                "history": np.asarray(history, float).reshape(-1),
                 "history_source": np.array([float(source)])})
     return out
 
@@ -82,6 +84,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     n = len(pr.p1)
     M2, w = need(outputs, "M2", (3, 4)), need(outputs, "w", (n, 3))
     o1, o2 = float(need(outputs, "o1", (1,))[0]), float(need(outputs, "o2", (1,))[0])
+    sizes = [None if maybe(outputs, k, (1,)) is None else float(outputs[k][0]) for k in ("o1_size", "o2_size")]
     history = need(outputs, "history", (None,))
     from_residual = float(need(outputs, "history_source", (1,))[0]) == 0
     source = "rodriguesResidual" if from_residual else "the optimiser's objective"
@@ -141,7 +144,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     drop = "lower" if end < start * (1 - 1e-6) else "not lower"
     alt = (f"Bundle adjustment of {n} points from a start moved away from the truth: the total squared reprojection "
            f"error goes from {fmt(start, 'px^2')} to {fmt(end, 'px^2')} with the M2 and w returned ({drop}); you "
-           f"reported o1 = {fmt(o1)} and o2 = {fmt(o2)}; |t| changed by a factor {m['t_ratio']:.3g}. "
+           f"reported {said('o1', o1, sizes[0])} and {said('o2', o2, sizes[1])}; |t| changed by a factor "
+           f"{m['t_ratio']:.3g}. "
            + (f"The objective was evaluated {len(history)} times, from {fmt(m['history_first'])} to "
               f"a lowest value of {fmt(m['history_min'])} ({source})." if len(history) else "No evaluation of the "
               "objective was recorded (neither rodriguesResidual nor a scipy.optimize objective).")

@@ -23,7 +23,7 @@ import numpy as np
 from core.geometry import project
 
 from . import precomputed
-from .arrays import call, need, number, read
+from .arrays import call, count, maybe, need, number, read, said
 from .picture import Picture, figure, fmt, to_picture
 from .public import car
 
@@ -44,7 +44,7 @@ def run(functions: Mapping[str, Callable], root=None) -> dict[str, np.ndarray]:
                  np.array(C[0], float), np.array(pts[0], float), np.array(C[1], float), np.array(pts[1], float),
                  np.array(C[2], float), np.array(pts[2], float), THRES)
     P, err = read(read_P_err, value, len(pts[0]), name="MultiviewReconstruction")
-    return {"P": np.asarray(P, float), "err": number(err, "err")}
+    return {"P": np.asarray(P, float), "err": number(err, "err"), "err_size": count(err)}
 
 
 def _handout_rule_reconstructs(pts, Thres) -> np.ndarray:
@@ -90,6 +90,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     n = len(pts[0])
     P = need(outputs, "P", (n, 3))
     err = float(need(outputs, "err", (1,))[0])
+    err_count = float(outputs["err_size"][0]) if maybe(outputs, "err_size", (1,)) is not None else None
     finite = np.all(np.isfinite(P), axis=1)
     rules = precomputed.rules(C, pts)
     nearest, gaps = _nearest_rule(P, rules) if rules is not None else (-1, {})
@@ -151,5 +152,5 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            f"detections above Thres"
            + (f"; mean 3D distance to the true keypoints {fmt(m['mean_error_3d'])}" if "mean_error_3d" in m else "")
            + (f". Of three rules, {rule}." if rules is not None else f"; {rule}.") + (f" {missing[0].upper()}{missing[1:]}." if missing else "")
-           + f" Your err: {fmt(err)}.")
+           + f" Your {said('err', err, err_count)}.")
     return to_picture("Q6", "MultiviewReconstruction: your keypoints in the three views", fig, alt, m)
