@@ -3,7 +3,8 @@ grader, in process under the secrets of the sweep and through the CLI, and under
 self-checks.
 
 - every valid program gets full marks on every autograded question, under every secret it is
-  graded under; every mistake loses the questions its name gives, and only those;
+  graded under; every mistake loses the questions its name gives, and only those (at least half
+  of each, for the mistakes marked ``half``);
 - public and hidden agree: a question's self-checks pass exactly when the grader gives it full
   marks (the self-checks run on the program's own functions, as a student's notebook would);
 - the CLI (``python -m autograder grade``, the sandbox) agrees with the in-process grading on
@@ -92,7 +93,15 @@ def _known(channel, programs, questions, why) -> tuple[Known, ...]:
 # without a compute3D_pts (it now judges the matcher and triangulate, as the grader does).
 # The last one: a minimize capped at 500 iterations ended up to 1.35 times the optimum on hidden
 # problems (goal: 1.1 times); the goal is now 1.5 times (judging.bundle.OPTIMUM_SLACK says why).
-KNOWN_WRONG: tuple[Known, ...] = ()
+# Q4.1's goals are 70 % of the weakest correct style's share of the easy points, which on some
+# hidden scenes is 10 to 20 %; and the hidden scenes' F is nearly skew-symmetric, so F^T x1 runs
+# close to F x1 through the true match.  Choosing scenes where the correct styles do well and the
+# lines differ (then raising the goals) is not done yet: a matcher on the wrong line or in a small
+# box keeps Q4.1, and Q4.2 built on it.
+_Q4_SCENES = "Q4.1 scene choice and goals not done: F^T x1 near F x1, goals from a weak style"
+_WRONG_MATCHERS = ("y2024_per_part_matcher_wrong_line_loses_Q4_1_Q4_2", "y2025_notebook_matcher_small_box_loses_Q4_1_Q4_2")
+KNOWN_WRONG: tuple[Known, ...] = (_known("hidden", _WRONG_MATCHERS, ("Q4.1", "Q4.2"), _Q4_SCENES)
+                                  + _known("public", _WRONG_MATCHERS, ("Q4.1", "Q4.2"), _Q4_SCENES))
 
 
 # ------------------------------------------------------------------------------------ the corpus
@@ -329,10 +338,19 @@ def _report(problems, known, channel):
     assert not problems, "\n".join(problems)
 
 
-def _verdict(name, qid, lost):
+# A mistake marked ``half`` must lose at least this share of each question it names: partial credit
+# that keeps most of a question does not say the code is wrong.
+MISTAKE_KEEPS_AT_MOST = 0.5
+
+
+def _verdict(name, qid, lost, kept: float = 0.0):
+    """Why the grade of program ``name`` on ``qid`` is wrong (None: right); ``lost``: not full
+    marks, ``kept``: the share of the question's points it got."""
     p = PROGRAMS[name]
     if qid in p.loses and not lost:
         return "keeps full marks, but must lose it"
+    if qid in p.loses and p.half and kept > MISTAKE_KEEPS_AT_MOST + 1e-9:
+        return f"keeps {kept:.0%} of it, but must lose at least {1 - MISTAKE_KEEPS_AT_MOST:.0%}"
     if qid not in p.loses and lost:
         return "loses it, but must keep full marks"
     return None
@@ -343,7 +361,7 @@ def _judge_hidden(graded, channel="hidden"):
     for secret, per in graded.items():
         for name, questions in per.items():
             for qid, q in questions.items():
-                wrong = _verdict(name, qid, _lost(q))
+                wrong = _verdict(name, qid, _lost(q), q[0] / q[1])
                 if not wrong:
                     continue
                 line = f"{name}, {secret}, {qid} {q[0]:g}/{q[1]:g}: {wrong} ({PROGRAMS[name].why})" + (
@@ -412,7 +430,7 @@ def test_cli_grades_as_in_process(tmp_path):
         for qid in sorted(ALL):
             score = float(row[qid] or 0)
             full = _full_points(qid)
-            wrong = _verdict(name, qid, score < full - 1e-9)
+            wrong = _verdict(name, qid, score < full - 1e-9, score / full)
             if wrong:
                 line = f"{name}, CLI {CLI_SECRET}, {qid} {score:g}/{full:g}: {wrong}"
                 k = next((k for k in KNOWN_WRONG if k.covers("hidden", name, qid)), None)

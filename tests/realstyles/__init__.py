@@ -53,6 +53,8 @@ y2022_per_part_E_swapped_loses_Q3_1_Q3_3                   Q3.1 Q3.3        E = 
 y2022_per_part_findM2_camera1_only_loses_Q3_3              Q3.3             points in front of camera 1 only, smallest
                                                                             error among those: the twisted pair can win
 y2025_notebook_matcher_returns_x1y1_loses_Q4_1_Q4_2        Q4.1 Q4.2        returns the point of image 1, not its match
+y2024_per_part_matcher_wrong_line_loses_Q4_1_Q4_2         Q4.1 Q4.2        searches the line F^T x1
+y2025_notebook_matcher_small_box_loses_Q4_1_Q4_2          Q4.1 Q4.2        searches rows y1 +- 10 px only
 y2023_per_part_multiview_views_1_2_loses_Q6               Q6               two confident views taken as views 1 and 2 always
 =========================================================  ===============  ====================================================
 
@@ -90,12 +92,16 @@ QUESTION_FUNCTIONS = {"Q2": ("eightpoint",), "Q3.1": ("essentialMatrix",), "Q3.2
 class Program:
     """layout: "per_part", "submission_py", "submission_py_own_helper", "submission_py_util" or
     "notebook"; pieces: function -> its source (None: not written, as 2018-21's Q4.2 script);
-    loses: the questions it must lose (all others full); why: one line, from the handout."""
+    loses: the questions it must lose (all others full); why: one line, from the handout; half:
+    it must lose at least half of each of them."""
 
     layout: str
     pieces: dict
     loses: frozenset = frozenset()
     why: str = ""
+    # Keeps at most half of each question in ``loses`` (the mistakes whose partial credit was found
+    # to keep most of a question; the others must only lose some).
+    half: bool = False
 
     @property
     def valid(self) -> bool:
@@ -160,13 +166,13 @@ PROGRAMS: dict[str, Program] = {
     # mistakes
     "y2019_submission_py_transposed_helper_refine_loses_Q2": Program(
         "submission_py", _pieces(eightpoint=s.EP_TRANSPOSED_HELPER_REFINE, **_OLD), _Q2,
-        why="FAQ: refineF can polish a transposed F; comment it out and the lines are wrong"),
+        why="FAQ: refineF can polish a transposed F; comment it out and the lines are wrong", half=True),
     "y2024_per_part_transposed_refine_inside_loses_Q2": Program(
         "per_part", _pieces(eightpoint=s.EP_TRANSPOSED_REFINE_INSIDE), _Q2,
-        why="the FAQ's transposed F, refineF imported inside eightpoint"),
+        why="the FAQ's transposed F, refineF imported inside eightpoint", half=True),
     "y2025_notebook_transposed_refine_default_arg_loses_Q2": Program(
         "notebook", _pieces(eightpoint=s.EP_TRANSPOSED_REFINE_DEFAULT_ARG, **_NB), _Q2,
-        why="the FAQ's transposed F, refineF a default argument"),
+        why="the FAQ's transposed F, refineF a default argument", half=True),
     "y2022_per_part_rank3_loses_Q2": Program("per_part", _pieces(eightpoint=s.EP_RANK3), _Q2,
                                              why="'You must enforce the singularity condition of F'"),
     "y2025_notebook_not_unscaled_loses_Q2": Program("notebook", _pieces(eightpoint=s.EP_NOT_UNSCALED, **_NB), _Q2,
@@ -183,9 +189,15 @@ PROGRAMS: dict[str, Program] = {
     "y2025_notebook_matcher_returns_x1y1_loses_Q4_1_Q4_2": Program(
         "notebook", _pieces(epipolarCorrespondence=s.EC_RETURNS_X1Y1, **_NB), frozenset({"Q4.1", "Q4.2"}),
         why="returns the pixel of im1, not 'the coordinates of the pixel on im2'"),
+    "y2024_per_part_matcher_wrong_line_loses_Q4_1_Q4_2": Program(
+        "per_part", _pieces(epipolarCorrespondence=s.EC_WRONG_LINE), frozenset({"Q4.1", "Q4.2"}),
+        why="the match lies on F x1 ('the epipolar line'), not on F^T x1; compute3D_pts builds on it", half=True),
+    "y2025_notebook_matcher_small_box_loses_Q4_1_Q4_2": Program(
+        "notebook", _pieces(epipolarCorrespondence=s.EC_SMALL_BOX, **_NB), frozenset({"Q4.1", "Q4.2"}),
+        why="'search along the epipolar line': rows within 10 px of y1 miss the matches further along it", half=True),
     "y2023_per_part_multiview_views_1_2_loses_Q6": Program(
         "per_part", _pieces(MultiviewReconstruction=s.MV_VIEWS_1_2), frozenset({"Q6"}),
-        why="'only use the points whose confidence is above Thres': two confident views are not always 1 and 2"),
+        why="'only use the points whose confidence is above Thres': two confident views are not always 1 and 2", half=True),
 }
 
 # --------------------------------------------------------------------------------- layouts

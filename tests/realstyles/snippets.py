@@ -320,6 +320,45 @@ def epipolarCorrespondence(im1, im2, F, x1, y1):
     return x2, y2
 '''
 
+# Mistake: the line of x1 taken as F^T x1 (the line in image 1 of a point of image 2); SSD, 11 px,
+# the whole line.
+EC_WRONG_LINE = '''\
+def epipolarCorrespondence(im1, im2, F, x1, y1):
+    x1, y1 = int(x1), int(y1)
+    r = 5
+    a, b, c = F.T.dot(np.array([x1, y1, 1.0]))
+    ref = im1[y1 - r:y1 + r + 1, x1 - r:x1 + r + 1].astype(float)
+    h, w = im2.shape[:2]
+    best, x2, y2 = np.inf, x1, y1
+    for y in range(r, h - r):
+        x = int(round(-(b * y + c) / a))
+        if r <= x < w - r:
+            d = np.sum((im2[y - r:y + r + 1, x - r:x + r + 1].astype(float) - ref) ** 2)
+            if d < best:
+                best, x2, y2 = d, x, y
+    return x2, y2
+'''
+
+# Mistake: the right line, but only rows within 10 px of y1 (a search box kept from a tutorial):
+# a match further along the line is never reached.
+EC_SMALL_BOX = '''\
+def epipolarCorrespondence(im1, im2, F, x1, y1):
+    x1, y1 = int(x1), int(y1)
+    r = 5
+    l = F @ np.array([x1, y1, 1.0])
+    ref = im1[y1 - r:y1 + r + 1, x1 - r:x1 + r + 1].astype(float)
+    best, x2, y2 = np.inf, x1, y1
+    for y in range(y1 - 10, y1 + 11):
+        x = int(round(-(l[1] * y + l[2]) / l[0]))
+        cand = im2[y - r:y + r + 1, x - r:x + r + 1].astype(float)
+        if cand.shape != ref.shape:
+            continue
+        d = np.sum((cand - ref) ** 2)
+        if d < best:
+            best, x2, y2 = d, x, y
+    return x2, y2
+'''
+
 # --------------------------------------------------------------------------- Q4.2 compute3D_pts
 
 # 2022-24: five arguments, findM2 inside, returns P.
