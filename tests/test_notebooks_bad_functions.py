@@ -11,6 +11,7 @@ arrays where a number is expected: Q6's 8 keypoints with an array of errors, Q5'
 
 from __future__ import annotations
 
+import re
 import shutil
 import textwrap
 from pathlib import Path
@@ -101,3 +102,29 @@ def test_every_notebook_runs_to_the_end_whatever_the_functions_do(kind, tmp_path
         assert "Traceback (most recent call last)" not in text, (stem, text[-3000:])
         if kind == "raise":
             assert "a bug of the student" in text, stem   # said in one line, not hidden
+
+
+def test_a_wrong_findM2_is_named_under_q42s_cloud(tmp_path, homework_data, monkeypatch):
+    """Q4.2's cloud uses C2 from the student's findM2 (Q3.3): a wrong candidate there (t of the
+    wrong sign, the points behind the cameras) is named under the cloud, where
+    check_compute3D_pts (given the true cameras) passes."""
+    from nbconvert.preprocessors import ExecutePreprocessor
+
+    monkeypatch.setenv("HW4_DATA", str(homework_data))
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    for stem in NOTEBOOKS:
+        shutil.copy(nbk.output_path(stem, "key"), tmp_path / f"{stem}.ipynb")
+    q3 = nbformat.read(tmp_path / "q3_metric_reconstruction.ipynb", as_version=4)
+    q3.cells.append(nbformat.v4.new_code_cell(
+        "def findM2(F, pts1, pts2, K1, K2, right=findM2):\n"
+        "    M2, C2, w = right(F, pts1, pts2, K1, K2)\n"
+        "    wrong = np.hstack([M2[:, :3], -M2[:, 3:]])\n"
+        "    return wrong, K2 @ wrong, w"))
+    nbformat.write(q3, tmp_path / "q3_metric_reconstruction.ipynb")
+    nb = nbformat.read(tmp_path / "q4_temple_3d.ipynb", as_version=4)
+    ExecutePreprocessor(timeout=120, kernel_name="python3", allow_errors=False).preprocess(
+        nb, {"metadata": {"path": str(tmp_path)}})
+    text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
+                   if o.output_type == "stream")
+    assert re.search(r"check compute3D_pts: (\d+)/\1 passed", text), text[-2000:]   # the self-check cannot tell
+    assert "C2 comes from your findM2 (Q3.3), which likely chose the wrong candidate" in text, text[-2000:]
