@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.geometry import depths
+from core.geometry import IDENTITY_POSE, depths
 from judging.bundle import ResidualCase, misreadings
 
 from .bundle import rodriguesResidual
@@ -60,7 +60,7 @@ def candidate_points(F, pts1, pts2, K1, K2) -> list[dict[str, np.ndarray]]:
 
     K1, K2 = np.asarray(K1, float), np.asarray(K2, float)
     cands = camera2(K2.T @ np.asarray(F, float) @ K1)
-    M1 = np.hstack([np.eye(3), np.zeros((3, 1))])
+    M1 = IDENTITY_POSE
     out = []
     for k in range(cands.shape[2]):
         X = linear_points([K1 @ M1, K2 @ cands[:, :, k]], [pts1, pts2])

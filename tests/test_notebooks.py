@@ -674,7 +674,8 @@ def homework_data(tmp_path_factory):
 # requirements-dev.txt names -> the modules they install.  The notebooks must run without them
 # (students install requirements.txt only), so the kernels below see each as missing.
 DEV_ONLY_MODULES = {"pytest": "pytest", "opencv-python-headless": "cv2", "jupyterlab": "jupyterlab",
-                    "playwright": "playwright", "nbgrader": "nbgrader", "pytest-xdist": "xdist"}
+                    "playwright": "playwright", "nbgrader": "nbgrader", "pytest-xdist": "xdist",
+                    "kubernetes": "kubernetes"}
 
 
 def _requirement_names(path: Path) -> set[str]:
