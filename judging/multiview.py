@@ -15,7 +15,7 @@ from core.geometry import project
 from .mistakes import error_not_sum_of_squares, threshold_mistakes
 from .verdict import Malformed, Verdict, fmt, read_array, read_number, read_parts
 
-__all__ = ["ERR_RTOL", "err_bounds", "err_reported", "read_P", "read_P_err", "reprojects_near", "sequence",
+__all__ = ["ERR_RTOL", "err_bounds", "err_reported", "err_totals", "read_P", "read_P_err", "reprojects_near", "sequence",
            "sequence_goal", "threshold_probe"]
 
 ERR_RTOL = 1e-3   # err within this share of the bounds recomputed from P (as bundle adjustment's o1, o2)
@@ -65,9 +65,38 @@ def err_bounds(P, Cs, pts, Thres) -> tuple[float, float]:
     return float(np.sum(two)), float(np.sum(sq[finite]))
 
 
+def err_totals(P, Cs, pts, Thres) -> list[float]:
+    """The totals (pixels^2) an err of P may be: P's squared reprojection errors summed over the
+    detections each known way of choosing them keeps, the same way for every keypoint (a keypoint
+    left NaN counts nothing): the detections above Thres (or at or above it) of each keypoint with
+    two of them, the two that fit best, the two most confident, the first two in view order, or
+    every detection.  An err between two of these, which no one choice gives, is not P's."""
+    P = np.asarray(P, float)
+    conf = np.stack([np.asarray(p, float)[:, 2] for p in pts], axis=1)               # (N, V)
+    _, finite, sq, _ = _squared(P, Cs, pts, Thres)
+    totals = [float(np.sum(sq[finite]))]                                              # every detection
+    order = np.arange(conf.shape[1])
+    for above in (conf > Thres, conf >= Thres):
+        rows = finite & (above.sum(axis=1) >= 2)
+        picks = [above,
+                 _two(above, np.where(above, sq, np.inf)),          # the two that fit best
+                 _two(above, np.where(above, -conf, np.inf)),       # the two most confident
+                 _two(above, np.where(above, order, np.inf))]       # the first two in view order
+        totals += [float(np.sum(np.where(pick, sq, 0.0)[rows])) for pick in picks]
+    return totals
+
+
+def _two(allowed: np.ndarray, key: np.ndarray) -> np.ndarray:
+    """(N, V) bool: per row, the two allowed entries with the smallest ``key``."""
+    picked = np.zeros_like(allowed)
+    idx = np.argsort(key, axis=1, kind="stable")[:, :2]
+    np.put_along_axis(picked, idx, True, axis=1)
+    return picked & allowed
+
+
 def err_reported(err, P, Cs, pts, Thres) -> Verdict:
     """err is the total squared reprojection error of the returned P (N, 3) over the detections used
-    (within :func:`err_bounds`, relative ERR_RTOL plus 1e-6 px^2 a keypoint); names
+    (one of :func:`err_totals`, within relative ERR_RTOL plus 1e-6 px^2 a keypoint); names
     error_not_sum_of_squares only when err is a known variant (a mean, a root...) of the sum over
     the detections above Thres: an err that matches none may count other detections (below Thres,
     or of keypoints P leaves out), which this test cannot tell from a wrong formula."""
@@ -82,7 +111,9 @@ def err_reported(err, P, Cs, pts, Thres) -> Verdict:
     if not np.isfinite(high):
         return Verdict.of(what, False, "P does not project to finite pixels", "")
     slack = 1e-6 * max(len(np.asarray(P)), 1)
-    ok = bool(np.isfinite(e) and low * (1 - ERR_RTOL) - slack <= e <= high * (1 + ERR_RTOL) + slack)
+    # Within the bounds is not enough: the total of one choice of detections (an err of another
+    # P, say one fitted to every detection, falls between them).
+    ok = bool(np.isfinite(e) and any(abs(e - t) <= ERR_RTOL * t + slack for t in err_totals(P, Cs, pts, Thres)))
     goal = fmt(high) if np.isclose(low, high, rtol=ERR_RTOL) else f"{fmt(low)} to {fmt(high)}"
     found = []
     if not ok:
