@@ -30,7 +30,7 @@ class GradingWorker:
         for var in ("PYTEST_ADDOPTS", "HW4_GRADER_SECRET", "HW4_GRADER_CONFIG"):
             env.pop(var, None)  # the settings are the run's, in the files it writes
         # The hidden inputs' arrays are small: a BLAS thread pool per worker only makes the workers of
-        # a --jobs N batch fight over the cores (a class of 30 took 105 s at --jobs 2 with it, see README).
+        # a --jobs N batch fight over the cores (a class of 30 took 105 s at --jobs 2 with it, see docs/benchmarks.md).
         for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
             env.setdefault(var, "1")
         r, w = os.pipe()

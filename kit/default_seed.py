@@ -2,8 +2,7 @@
 
     python -m kit.default_seed [--start 0] [--stop 200] [--all]
 
-The default data is meant to behave like the official data (README, "The default data and the
-official data"), but the figures of the linear eight-point estimate are a lottery on the
+The default data is meant to behave like the official data (docs/data.md), but the figures of the linear eight-point estimate are a lottery on the
 rounding of the stored points: leaving one official point out moves its reprojection error of
 89 anywhere from 36 to 1073, and temple seeds 0 to 74 give 94 to 11600.  So the seed is chosen,
 by the criterion below, as the first seed from 0 upward whose scene meets it;
@@ -12,7 +11,7 @@ the default scene meets the criterion.  The command scans seeds and prints each 
 stopping at the first that meets it (``--all``: scans the whole range).
 
 The figures are those of ``python -m kit run`` (same calls, same RANSAC seed), computed on the
-scene's arrays rather than on files; the official ones are in README, "Figures".
+scene's arrays rather than on files; the official ones are in docs/benchmarks.md.
 """
 
 from __future__ import annotations
@@ -25,7 +24,7 @@ import numpy as np
 
 __all__ = ["CRITERION", "OFFICIAL", "figures", "unmet", "main"]
 
-# The official data's figures (python -m kit run --data ../shared/course-data; README "Figures").
+# The official data's figures (python -m kit run --data ../shared/course-data; docs/benchmarks.md).
 OFFICIAL = {"without refineF": 89.44, "with refineF": 352.0, "transposed F": 1927.0,
             "RANSAC inliers at 1 px": (105, 108), "after bundle adjustment": 8.0}
 

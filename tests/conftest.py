@@ -86,7 +86,7 @@ def pytest_collection_modifyitems(config, items):
 # both used (in one process, much of a file's time is spent waiting on sandboxes, kernels, workers
 # or a browser).
 # Set here rather than in pyproject's addopts so that it is the kit's suite only: a pytest run of an
-# instructor's own checks from the kit's folder (README, "adding a check") stays one plain session.
+# instructor's own checks from the kit's folder (docs/hidden-checks.md) stays one plain session.
 # ``-n 0`` (or ``-s``, whose output xdist would swallow, or ``--pdb``) runs everything in this
 # process, as before; ``-n 4`` more processes.
 TEST_PROCESSES = 2

@@ -1,4 +1,4 @@
-"""The instructor's recipe of the README: a new hidden check is a plain pytest test.
+"""The instructor's recipe of docs/hidden-checks.md: a new hidden check is a plain pytest test.
 
 1. write it in a folder of one's own (never in the kit: it is hidden from students anyway);
 2. run it on one submission with pytest (``-p autograder.hidden.plugin --submission PATH``);

@@ -534,7 +534,7 @@ def test_q5_x_packing_shows_in_the_residuals():
 @slow
 def test_q33_depth_in_camera_1_only_picks_the_twisted_pair():
     """The catalogue's "depth tested in one camera only": on the default data it picks the right camera
-    (by chance, as the README says); on the twisted-pair row its choice has every point in front of
+    (by chance, as docs/judging.md says); on the twisted-pair row its choice has every point in front of
     camera 1 and behind camera 2."""
     ns = program()
     essentialMatrix, triangulate = ns["essentialMatrix"], ns["triangulate"]

@@ -72,7 +72,7 @@ DEFAULT_LIBRARY_CALLS: dict[str, str] = {
 
 # The kit's top-level packages: a name under one of them is the kit's own.
 KIT_PACKAGES = ("core", "scenes", "starter", "judging", "handin", "solutions", "autograder", "kit")
-# What of the kit a student may import (README, "For students"): module -> the names of it given
+# What of the kit a student may import (docs/students.md): module -> the names of it given
 # (patterns; None: all of it, submodules included; "starter" gives what its __all__ lists).  A key
 # ending in ".*" stands for each module directly under it.  Anything else of KIT_PACKAGES is internal.
 GIVEN_KIT: dict[str, tuple[str, ...] | None] = {
