@@ -3,9 +3,10 @@
     python -m kit.default_seed [--start 0] [--stop 200] [--all]
 
 The default data is meant to behave like the official data (docs/data.md), but the figures of
-the linear eight-point estimate are a lottery on the rounding of the stored points: leaving one official point out moves its reprojection error of
-89 anywhere from 36 to 1073, and temple seeds 0 to 74 give 94 to 11600.  So the seed is chosen,
-by the criterion below, as the first seed from 0 upward whose scene meets it;
+the linear eight-point estimate are a lottery on the rounding of the stored points: leaving one
+official point out moves its reprojection error of 89 anywhere from 36 to 1073, and temple seeds
+0 to 74 give 94 to 11600.  So the seed is chosen, by the criterion below, as the first seed from 0
+upward whose scene meets it;
 scenes.defaults.TEMPLE_SEED records the result and tests/test_generated_scenes.py checks that
 the default scene meets the criterion.  The command scans seeds and prints each one's figures,
 stopping at the first that meets it (``--all``: scans the whole range).
