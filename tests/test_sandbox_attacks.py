@@ -2,19 +2,18 @@
 kit runs in: as root with namespaces, and at the ``uid`` level in a container like Gradescope's
 (Docker's default capabilities through ``setpriv``, a public Python's venv; ../shared/FIELD-NOTES.md).
 
-The attackers (tests/corpus/hostile.py); the two that could reach the next submission graded
-under the same uid are each followed by an answer key:
+The attackers (tests/corpus/hostile.py); the one that could reach the next submission graded under
+the same uid is followed by an answer key:
 
 - ``stashes_truth``: keeps every F the other questions' checks hand it (memory, home, /dev/shm) and
   returns it from eightpoint, on the checks and on the pictures;
 - ``throws_refine_switch``: turns refineF's switch back on from inside the child;
-- ``kernel_channels``: a note in the uid's keyring, gigabytes of memfd files, a user namespace;
-- ``outlives_its_sandbox``: a zombie-led process in a session of its own that kills the next
-  processes of its uid, and 3,000-level folder trees in its home, /dev/shm and /run/lock.
+- ``kernel_and_outliving``: a note in the uid's keyring, gigabytes of memfd files, a user
+  namespace; then a zombie-led process in a session of its own that kills the next processes of
+  its uid, and 3,000-level folder trees in its home, /dev/shm and /run/lock.
 
-Every case is contained: the key graded right after each of those keeps full marks, the two Q2
-attackers stay at or below half of Q2 like the same mistake without the trick (before: 9.25 and 7
-of 10), the kernel refuses the channels, nothing of the sandbox's uids is left in the shared temporary folders, and the class
+Every case is contained: the key graded right after it keeps full marks, the two Q2 attackers stay
+at or below half of Q2 (before: 9.25 and 7 of 10), the kernel refuses the channels, nothing of the sandbox's uids is left in the shared temporary folders, and the class
 ends with grades.csv.
 """
 
@@ -45,9 +44,20 @@ pytestmark = [
     pytest.mark.skipif(platform.machine() != "x86_64", reason="the attacks call x86_64 syscall numbers"),
 ]
 
-BASELINE = "c_plain_transposed_refined"
-# The attackers that could harm the next submission graded under the same uid, and the key after each.
-KEYS_AFTER = {"d_kernel_channels": "e_then_key", "f_outlives_its_sandbox": "g_then_key"}
+# The attacker that could harm the next submission graded under the same uid, and the key after it
+# (which looks for the first one's keyring note itself).
+KEYS_AFTER = {"c_kernel_and_outliving": "d_then_key"}
+# The kernel channels first (their essentialMatrix prints what the kernel said), then the hunter
+# and the deep trees.
+_BOTH = """
+
+_kernel_essential = essentialMatrix
+
+
+def essentialMatrix(F, K1, K2):
+    _kernel_essential(F, K1, K2)
+    return _outlive_then_essential(F, K1, K2)
+"""
 
 
 def _class(root: Path) -> list[Path]:
@@ -57,12 +67,11 @@ def _class(root: Path) -> list[Path]:
     made = [
         _key_with_cells(subs / "a_stashes_truth", hostile.stashes_truth(transposed)),
         key_with(subs / "b_throws_refine_switch", "q2_eightpoint", hostile.throws_refine_switch(transposed)),
-        key_with(subs / BASELINE, "q2_eightpoint", transposed),
-        key_with(subs / "d_kernel_channels", "q3_metric_reconstruction", hostile.KERNEL_CHANNELS),
-        key_with(subs / "e_then_key", "q3_metric_reconstruction", hostile.KERNEL_CHANNELS.replace(
+        key_with(subs / "c_kernel_and_outliving", "q3_metric_reconstruction",
+                 hostile.KERNEL_CHANNELS + hostile.OUTLIVES_ITS_SANDBOX.replace(
+                     "def essentialMatrix(", "def _outlive_then_essential(") + _BOTH),
+        key_with(subs / "d_then_key", "q3_metric_reconstruction", hostile.KERNEL_CHANNELS.replace(
             "hw4-big", "hw4-big-again")),
-        key_with(subs / "f_outlives_its_sandbox", "q3_metric_reconstruction", hostile.OUTLIVES_ITS_SANDBOX),
-        key_with(subs / "g_then_key", "q2_eightpoint", "x_unused = 3\n"),
     ]
     return made
 
@@ -117,19 +126,18 @@ def _contained(graded: dict, level: str) -> None:
     assert any(int(n) >= 1 for n in _printed(stash, "KEPT")), stash["staff"]["stdout"][-2000:]
     found = _printed(stash, "STASHED")
     assert found and set(found) == {"0"}, found
-    # The trick earns nothing: at or below half of Q2, as the same mistake without it (the hidden
-    # scenes are drawn from each submission's code, so the two scores need not be equal).
-    assert states[BASELINE]["scores"]["Q2"] <= 5
+    # The trick earns nothing: at or below half of Q2, as the same mistake without it (before: 9.25
+    # and 7 of 10; tests/test_fundamental_goals.py holds the mistake itself at or below half).
     for attacker in ("a_stashes_truth", "b_throws_refine_switch"):
         assert states[attacker]["scores"]["Q2"] <= 5, (attacker, states[attacker]["scores"]["Q2"])
 
     # The kernel refused the channels (EACCES from the syscall filter), in both submissions.
-    for name in ("d_kernel_channels", "e_then_key"):
+    for name in ("c_kernel_and_outliving", "d_then_key"):
         for tag in ("KEYRING-READ", "KEYRING-WRITE", "MEMFD", "USERNS"):
             assert _printed(states[name], tag) and set(_printed(states[name], tag)) == {"13"}, (name, tag)
 
     # The trees were made, and are gone with everything else of the sandbox's uids.
-    assert "3000" in " ".join(_printed(states["f_outlives_its_sandbox"], "DEEP"))
+    assert "3000" in " ".join(_printed(states["c_kernel_and_outliving"], "DEEP"))
     uids = {s["isolation"]["uid"] for s in states.values()}
     assert not {0, os.getuid()} & uids
     assert owned_by(uids) == []
