@@ -35,6 +35,45 @@ def official_temple(course_data):
     return load_temple(course_data)
 
 
+@pytest.fixture(scope="session")
+def homework_data(tmp_path_factory):
+    """The kit's default data: data/ when it is there, else generated the same way."""
+    from core.paths import KIT_ROOT
+
+    kit_data = KIT_ROOT / "data"
+    if (kit_data / "temple" / "some_corresp.npz").exists() and (kit_data / "q6" / "time0.npz").exists():
+        return kit_data
+    from scenes.defaults import write_default_data
+
+    out = tmp_path_factory.mktemp("default-data")
+    write_default_data(out)
+    return out
+
+
+@pytest.fixture(scope="module")
+def config_file(tmp_path_factory) -> Path:
+    """The quick grading settings (``autograder.config.quick_config``) in a file of the module's."""
+    import json
+
+    from autograder.config import quick_config
+
+    path = tmp_path_factory.mktemp("config") / "grader.json"
+    path.write_text(json.dumps(quick_config().to_dict()))
+    return path
+
+
+@pytest.fixture(scope="module")
+def public_python():
+    """A venv of the public /usr/bin/python3 (the uid level refuses a Python under /root)."""
+    from test_fail_closed import public_folder, public_venv
+
+    root = public_folder()
+    try:
+        yield public_venv(root / "venv")
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261121)

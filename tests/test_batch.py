@@ -71,13 +71,6 @@ def extra_check(folder: Path, threshold: float) -> Path:
 
 
 @pytest.fixture(scope="module")
-def config_file(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("config") / "grader.json"
-    path.write_text(json.dumps(quick_config().to_dict()))
-    return path
-
-
-@pytest.fixture(scope="module")
 def alone(tmp_path_factory) -> dict:
     """What the partly right corpus submissions deserve, each graded alone outside any batch (how
     much Q2 takes off is the hidden checks' business; a batch must record exactly this): the total

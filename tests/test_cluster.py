@@ -51,13 +51,6 @@ SHARDS = 2   # shard 0: the key and rank2 (positions 0 and 2); shard 1: transpos
 
 
 @pytest.fixture(scope="module")
-def config_file(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("config") / "grader.json"
-    path.write_text(json.dumps(quick_config().to_dict()))
-    return path
-
-
-@pytest.fixture(scope="module")
 def class_paths(tmp_path_factory) -> list[Path]:
     root = tmp_path_factory.mktemp("class")
     return [corpus.build(name, root / "subs", out=root / "out") for name in CLASS]

@@ -658,19 +658,6 @@ def test_release_refuses_unsafe_targets(release, tmp_path):
 # ------------------------------------------------------------------- running the notebooks
 
 
-@pytest.fixture(scope="session")
-def homework_data(tmp_path_factory):
-    """The kit's default data: data/ when it is there, else generated the same way."""
-    kit_data = KIT_ROOT / "data"
-    if (kit_data / "temple" / "some_corresp.npz").exists() and (kit_data / "q6" / "time0.npz").exists():
-        return kit_data
-    from scenes.defaults import write_default_data
-
-    out = tmp_path_factory.mktemp("default-data")
-    write_default_data(out)
-    return out
-
-
 # requirements-dev.txt names -> the modules they install.  The notebooks must run without them
 # (students install requirements.txt only), so the kernels below see each as missing.
 DEV_ONLY_MODULES = {"pytest": "pytest", "opencv-python-headless": "cv2", "jupyterlab": "jupyterlab",

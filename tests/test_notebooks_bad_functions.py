@@ -63,20 +63,6 @@ def _with_bugs(stem: str, bodies: dict) -> nbformat.NotebookNode:
     return nb
 
 
-@pytest.fixture(scope="module")
-def homework_data(tmp_path_factory):
-    from core.paths import KIT_ROOT
-
-    kit_data = KIT_ROOT / "data"
-    if (kit_data / "temple" / "some_corresp.npz").exists() and (kit_data / "q6" / "time0.npz").exists():
-        return kit_data
-    from scenes.defaults import write_default_data
-
-    out = tmp_path_factory.mktemp("default-data")
-    write_default_data(out)
-    return out
-
-
 @pytest.mark.parametrize("kind", sorted(KINDS))
 def test_every_notebook_runs_to_the_end_whatever_the_functions_do(kind, tmp_path, homework_data, monkeypatch):
     from nbconvert.preprocessors import ExecutePreprocessor

@@ -147,14 +147,7 @@ def test_attacks_are_contained_at_the_namespaces_level(tmp_path):
     _contained(_grade("namespaces", tmp_path, [sys.executable]), "namespaces")
 
 
-def test_attacks_are_contained_at_the_uid_level_in_a_container(tmp_path):
-    from test_fail_closed import public_folder, public_venv
-
-    root = public_folder()
-    try:
-        python = in_container([str(public_venv(root / "venv"))])
-        # Without the pictures here (the fresh child they run on is the same at every level): the
-        # run's time goes to what differs, the uid's sweep and clean-up between submissions.
-        _contained(_grade("uid", tmp_path, python, pictures=False), "uid")
-    finally:
-        shutil.rmtree(root, ignore_errors=True)
+def test_attacks_are_contained_at_the_uid_level_in_a_container(tmp_path, public_python):
+    # Without the pictures here (the fresh child they run on is the same at every level): the
+    # run's time goes to what differs, the uid's sweep and clean-up between submissions.
+    _contained(_grade("uid", tmp_path, in_container([str(public_python)]), pictures=False), "uid")

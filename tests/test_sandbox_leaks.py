@@ -46,18 +46,6 @@ def run(argv, *, timeout=900) -> subprocess.CompletedProcess:
     return subprocess.run(argv, cwd=KIT_ROOT, env=env, capture_output=True, text=True, timeout=timeout, check=False)
 
 
-@pytest.fixture(scope="module")
-def public_python():
-    """A venv of the public /usr/bin/python3 (the uid level refuses a Python under /root)."""
-    from test_fail_closed import public_folder, public_venv
-
-    root = public_folder()
-    try:
-        yield public_venv(root / "venv")
-    finally:
-        shutil.rmtree(root, ignore_errors=True)
-
-
 def python_for(level: str, public_python: Path) -> list[str]:
     """How to run a grader program at ``level``: this Python as root, or the public one in a container."""
     return [sys.executable] if level == "namespaces" else in_container([str(public_python)])

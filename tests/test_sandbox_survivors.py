@@ -39,18 +39,6 @@ pytestmark = [
 SYS_EXIT = {"x86_64": 60, "aarch64": 93}.get(platform.machine())
 
 
-@pytest.fixture(scope="module")
-def public_python():
-    """A venv of the public /usr/bin/python3 (the uid level refuses a Python under /root)."""
-    from test_fail_closed import public_folder, public_venv
-
-    root = public_folder()
-    try:
-        yield public_venv(root / "venv")
-    finally:
-        shutil.rmtree(root, ignore_errors=True)
-
-
 def live_tasks(uid: int) -> list[str]:
     """``pid/tid`` of every thread running as ``uid`` that is not a zombie, read from
     /proc/*/task/*/status (independently of the grader's own sweep)."""
