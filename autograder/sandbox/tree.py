@@ -21,7 +21,7 @@ import os
 import stat
 from dataclasses import dataclass, field
 
-__all__ = ["Tally", "remove", "usage"]
+__all__ = ["Tally", "disk_bytes", "remove", "usage"]
 
 _MAX_NAMED = 20          # what could not be removed, named one by one; the rest are counted
 _MAX_NAME_CHARS = 240    # a name past this is shortened in the middle (a path 5,000 folders deep)
@@ -78,8 +78,9 @@ def remove(path: str | os.PathLike, *, owner: int | None = None) -> Tally:
     return _walk(os.fspath(path), remove=True, owner=owner)
 
 
-def _size(st: os.stat_result) -> int:
-    return st.st_blocks * 512  # what it takes on disk (or in memory): a sparse file takes little
+def disk_bytes(st: os.stat_result) -> int:
+    """What an entry takes on disk (or in memory, on a tmpfs): a sparse file takes little."""
+    return st.st_blocks * 512
 
 
 def _short(path: str) -> str:
@@ -99,7 +100,7 @@ class _Frame:
     __slots__ = ("name", "key", "size", "pending", "failed")
 
     def __init__(self, name: str, st: os.stat_result):
-        self.name, self.key, self.size = name, (st.st_dev, st.st_ino), _size(st)
+        self.name, self.key, self.size = name, (st.st_dev, st.st_ino), disk_bytes(st)
         self.pending: list[tuple[str, os.stat_result]] = []
         self.failed = False  # something inside could not be read or removed (and is named)
 
@@ -125,7 +126,7 @@ def _walk(path: str, *, remove: bool, owner: int | None) -> Tally:
         else:
             if remove:
                 os.unlink(name, dir_fd=parent)
-            tally.entries, tally.bytes = 1, _size(st)
+            tally.entries, tally.bytes = 1, disk_bytes(st)
     except FileNotFoundError:
         pass  # gone already: nothing to count or remove
     except OSError as exc:
@@ -254,7 +255,7 @@ def _list(fd: int, frame: _Frame, device: int, tally: Tally, remove: bool, where
                 frame.failed = True
                 continue
         tally.entries += 1
-        tally.bytes += _size(est)
+        tally.bytes += disk_bytes(est)
 
 
 def _up(fd: int, key: tuple[int, int]) -> int | None:

@@ -144,7 +144,7 @@ def held_open_files(uid: int) -> tuple[int, int]:
             except OSError:
                 continue
             if stat.S_ISREG(st.st_mode) and st.st_nlink == 0:
-                seen[(st.st_dev, st.st_ino)] = max(seen.get((st.st_dev, st.st_ino), 0), _size(st))
+                seen[(st.st_dev, st.st_ino)] = max(seen.get((st.st_dev, st.st_ino), 0), tree.disk_bytes(st))
         try:
             with open(f"{task}/maps") as fh:
                 maps = fh.read().splitlines()
@@ -228,10 +228,6 @@ def _roots(roots) -> list[str]:
     return out
 
 
-def _size(st: os.stat_result) -> int:
-    return st.st_blocks * 512  # what it takes on disk (or in memory): a sparse file takes little
-
-
 def usage_of(path: str | os.PathLike) -> tuple[int, int]:
     """(entries, bytes) of ``path`` and everything in it, links not followed (``tree.usage``: no
     recursion, any depth)."""
@@ -253,7 +249,7 @@ def files_of_uid(uid: int, roots=SHARED_TMP_DIRS, *, deep: bool = True):
             got = tree.usage(path)
             found.append((path, True, got.entries, got.bytes))
         else:
-            found.append((path, False, 1, _size(st)))
+            found.append((path, False, 1, tree.disk_bytes(st)))
     return found
 
 
