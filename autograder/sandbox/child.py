@@ -269,12 +269,13 @@ class _Leaks:
     the working folder, os.environ, signal handlers and the blocked-signal mask, the umask,
     sys.stdin/stdout/stderr, trace and profile hooks, the recursion limit and switch interval,
     the garbage collector's switch, numpy's floating-point error handling, the warnings filters
-    and the soft resource limits.  ``undo`` returns the reasons it could not (threads still
-    running, a hard limit lowered, a folder that is gone): then the grader starts a fresh
+    and the soft resource limits; unreaped processes the request started are reaped.  ``undo``
+    returns the reasons it could not (threads still running, processes the request started still
+    there, a hard limit lowered, a folder that is gone): then the grader starts a fresh
     process before the next request, so one question's leak never costs another question.
     """
 
-    def __init__(self, keep, std):
+    def __init__(self, keep, std, own_uid=False):
         import gc
         import resource
         import threading
@@ -307,6 +308,11 @@ class _Leaks:
             if which is not None:
                 self.limits[which] = resource.getrlimit(which)
         self.threads = _thread_count()
+        self.own_uid = own_uid
+        self.last_pid = _last_pid()
+        if self.last_pid is None or self.last_pid != _LISTED[0]:
+            _LISTED[:] = [self.last_pid, frozenset(_processes(own_uid))]
+        self.processes = _LISTED[1]  # a pid gone since is harmless here: reusing it moves the last pid
 
     def undo(self):
         """Put the recorded state back; the list of what could not be."""
@@ -375,7 +381,75 @@ class _Leaks:
             time.sleep(0.01)
         if _thread_count() > self.threads:
             lost.append("threads it started are still running")
+        # A process the call started and left (a fork bomb's copies, a daemon, an unreaped child)
+        # holds places under the process limit that the next question's code would miss.
+        end = time.monotonic() + 0.5
+        while self.last_pid is None or _last_pid() != self.last_pid:
+            left = _processes(self.own_uid) - self.processes
+            for pid in left:
+                try:
+                    os.waitpid(pid, os.WNOHANG)  # its own unreaped children are ended, not running
+                except OSError:
+                    pass
+            left = _processes(self.own_uid) - self.processes if left else left
+            if not left or time.monotonic() >= end:
+                if left:
+                    lost.append(f"{len(left)} processes it started outlived the call")
+                break
+            time.sleep(0.01)
         return lost
+
+
+def _last_pid():
+    """The last pid the kernel handed out in this pid namespace (None if unknown): while it stays
+    the same, no process or thread was created, so a listing need not be made again."""
+    try:
+        with open("/proc/loadavg", "rb") as f:
+            return int(f.read().split()[-1])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+_LISTED: list = [None, frozenset()]  # the last pid at the last listing, and that listing
+
+
+def _processes(own_uid):
+    """Pids, other than this process's, that this child answers for: every process of its uid
+    when the uid is the sandbox's own (``own_uid``: a process the code started and left to the
+    machine's init is still found), else its descendants (the grader's uid runs other things).
+    Zombies are included: an unreaped one still holds a place under the process limit."""
+    me, uid = os.getpid(), b"\nUid:\t%d\t" % os.getuid()
+    parents = {}
+    try:
+        names = os.listdir("/proc")
+    except OSError:
+        return set()
+    for name in names:
+        if not name.isdigit() or int(name) == me:
+            continue
+        try:
+            # status, not the folder's owner: a process that made itself undumpable shows as root's.
+            fd = os.open(f"/proc/{name}/status", os.O_RDONLY)
+            try:
+                text = os.read(fd, 4096)
+            finally:
+                os.close(fd)
+            if uid in text:
+                at = text.index(b"\nPPid:\t") + 7
+                parents[int(name)] = int(text[at:text.index(b"\n", at)])
+        except (OSError, ValueError):
+            continue
+    found = set(parents)
+    if not own_uid:
+        found, grew = {me}, True
+        while grew:
+            grew = False
+            for pid, ppid in parents.items():
+                if ppid in found and pid not in found:
+                    found.add(pid)
+                    grew = True
+        found.discard(me)
+    return found
 
 
 def _save_std():
@@ -697,6 +771,7 @@ def main(argv):
         sys.stderr.write(f"sandbox: the syscall filter could not be installed ({why})\n")
         os._exit(70)
     fd = int(argv[argv.index("--result-fd") + 1])
+    own_uid = "--own-uid" in argv
     os.set_inheritable(fd, False)
     channel = _Channel(fd)
     requests = os.fdopen(os.dup(0), "rb")
@@ -749,7 +824,7 @@ def main(argv):
         else:
             # What the call leaves behind (fds, the working folder, signal handlers...) is undone
             # before the next request: the next question's functions start where this one started.
-            leaks = _Leaks((fd, requests.fileno(), devnull), std)
+            leaks = _Leaks((fd, requests.fileno(), devnull), std, own_uid)
             grader.rid = rid
             try:
                 _call(request, fn, channel, origins, limit, max_bytes, wire, np)

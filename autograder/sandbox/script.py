@@ -77,7 +77,7 @@ class Runtime:
 
     def child_argv(self, result_fd: int) -> list[str]:
         return [sys.executable, "-I", "-B", str(self.lib_inside() / "child.py"), "--result-fd", str(result_fd),
-                *(["--deny-internet"] if self.deny_internet else [])]
+                *(["--deny-internet"] if self.deny_internet else []), *(["--own-uid"] if self.uid is not None else [])]
 
 
 # ------------------------------------------------------------------------------------------------
