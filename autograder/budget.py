@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import time
 
-__all__ = ["DEADLINE_RESERVE", "MARGIN", "RESTARTS_BUDGETED", "backstop_of", "budget_of"]
+__all__ = ["DEADLINE_RESERVE", "MARGIN", "MIN_SESSION", "RESTARTS_BUDGETED", "backstop_of", "budget_of", "too_late"]
 
 RESTARTS_BUDGETED = 3      # crashes or timeouts after which the session's time is still enough
 MARGIN = 120.0             # seconds a pytest run may take beyond the session's budget (imports, judging)
 DEADLINE_RESERVE = 30.0    # seconds kept before a deadline for judging what ran and writing the results
+MIN_SESSION = 15.0         # seconds below which a session could not even start pytest and load the code
 
 
 def budget_of(hidden, limits=None, deadline: float | None = None) -> float:
@@ -45,3 +46,16 @@ def backstop_of(hidden, limits=None, deadline: float | None = None) -> float:
     if deadline is not None:
         backstop = max(min(backstop, deadline - time.monotonic() - 5.0), budget)
     return backstop
+
+
+def too_late(deadline: float | None) -> str | None:
+    """Why a submission cannot be graded before ``deadline`` (``time.monotonic()``): fewer than
+    ``MIN_SESSION`` seconds are left once ``DEADLINE_RESERVE`` is kept (setting up, the canary
+    say, took the rest of the platform's time limit); None when there is time, or no deadline."""
+    if deadline is None:
+        return None
+    left = deadline - time.monotonic() - DEADLINE_RESERVE
+    if left >= MIN_SESSION:
+        return None
+    return (f"the time limit left {max(left, 0.0):.0f} s to run the checks, fewer than the {MIN_SESSION:.0f} s "
+            "they need at the least (setting up took the rest); the course staff can raise the time limit")

@@ -44,7 +44,7 @@ from pathlib import Path
 from core.paths import KIT_ROOT
 
 from . import canary
-from .budget import backstop_of, budget_of
+from .budget import backstop_of, budget_of, too_late
 from .config import GradingConfig, configuration, load_config, tests_fingerprint
 from .grade import run_session
 from .hidden import inputs
@@ -281,6 +281,11 @@ class GradingRun:
         staff = staff if staff is not None else {}
         staff.setdefault("log", [])
         path = path.resolve()
+        late = too_late(deadline)
+        if late is not None:
+            # Not an internal error: the grader is sound, the platform's clock ran out first.
+            staff["log"].append(f"not graded: {late}")
+            return self.failed(late, student_id=student_id or path.name)
         limits = box.limits
         budget = budget_of(self.hidden, limits, deadline)
         options = ["--grading-config", str(self._cache / "config.json"), "--hidden-cache", str(self._cache),

@@ -8,6 +8,7 @@ by the wall clock before its CPU limits.
 
 from __future__ import annotations
 
+import time
 from types import SimpleNamespace
 
 import pytest
@@ -51,7 +52,10 @@ def test_the_share_is_checked():
     assert ResourceLimits(**vars(limits)) == limits  # what Sandbox.describe/attach hand over
 
 
-def test_grading_gives_the_plugin_and_the_worker_the_grown_budget(hidden, monkeypatch, tmp_path):
+@pytest.fixture
+def recorded(monkeypatch) -> list:
+    """What the run asks its workers for (budget, timeout), none of it run: the run's workers are
+    replaced by a recorder."""
     asked = []
 
     class Recorder:
@@ -62,7 +66,7 @@ def test_grading_gives_the_plugin_and_the_worker_the_grown_budget(hidden, monkey
         def kill(self):   # a run that raised is abandoned with its worker
             pass
 
-    class Pool:  # the run's workers, replaced by the recorder
+    class Pool:
         started = 0
 
         def warm(self):
@@ -75,18 +79,46 @@ def test_grading_gives_the_plugin_and_the_worker_the_grown_budget(hidden, monkey
             pass
 
     monkeypatch.setattr(run_module, "WorkerPool", Pool)
+    return asked
+
+
+def fake_box(limits: ResourceLimits) -> SimpleNamespace:
     iso = Isolation("basic", None, False, False, False, (), weak=True)
+    return SimpleNamespace(limits=limits, isolation=iso, describe=lambda: {})
+
+
+def test_grading_gives_the_plugin_and_the_worker_the_grown_budget(hidden, recorded, tmp_path):
     (tmp_path / "sub").mkdir()
     for share in (1.0, 0.47):
         limits = ResourceLimits(clock="cpu", wall_factor=max(1.5 / share, 2.0), cpu_share=share)
-        box = SimpleNamespace(limits=limits, isolation=iso, describe=lambda: {})
         with pytest.raises(RuntimeError, match="recorded"), \
-                run_module.GradingRun(hidden.config, hidden_inputs=hidden, sandbox=box) as run:
+                run_module.GradingRun(hidden.config, hidden_inputs=hidden, sandbox=fake_box(limits)) as run:
             run.grade(tmp_path / "sub")
-    (full, full_timeout), (half, half_timeout) = asked
+    (full, full_timeout), (half, half_timeout) = recorded
     assert full == pytest.approx(budget.budget_of(hidden)) and half == pytest.approx(budget.budget_of(hidden, limits))
     assert half - loading(hidden) == pytest.approx((full - loading(hidden)) / 0.47)
     assert half_timeout - half == pytest.approx((full_timeout - full) / 0.47)  # the pytest run's margin too
+
+
+def test_a_deadline_too_close_to_grade_is_a_failure_that_says_so_not_an_internal_error(hidden, recorded, tmp_path):
+    (tmp_path / "sub").mkdir()
+    assert budget.too_late(None) is None
+    assert budget.too_late(time.monotonic() + budget.DEADLINE_RESERVE + budget.MIN_SESSION + 60) is None
+    # Setting up (the canary, say) took all but a few seconds of the platform's limit.
+    deadline = time.monotonic() + budget.DEADLINE_RESERVE + budget.MIN_SESSION / 3
+    with run_module.GradingRun(hidden.config, hidden_inputs=hidden, sandbox=fake_box(ResourceLimits()),
+                               deadline=deadline) as run:
+        staff: dict = {}
+        result = run.grade(tmp_path / "sub", staff=staff)
+    assert recorded == []  # no session was started to be cut short
+    assert result.failure is not None and "time limit" in result.failure and "internal" not in result.failure
+    assert any("time limit" in line for line in staff["log"])
+    # With time left, the same run grades (here: asks its worker).
+    with pytest.raises(RuntimeError, match="recorded"), \
+            run_module.GradingRun(hidden.config, hidden_inputs=hidden, sandbox=fake_box(ResourceLimits()),
+                                  deadline=time.monotonic() + 3600) as run:
+        run.grade(tmp_path / "sub")
+    assert len(recorded) == 1
 
 
 def test_gradescope_measures_the_share_the_budget_uses():
