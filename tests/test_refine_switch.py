@@ -361,3 +361,35 @@ def test_code_in_the_sandbox_cannot_polish_a_switched_off_run(two_view):
         assert outcome.status == "ok", (how, outcome.message)
         assert np.allclose(outcome.value, projected, atol=1e-12), how
     assert on[0].status == "ok" and np.array_equal(on[0].value, polished)
+
+
+def test_the_grader_polishes_each_set_of_arguments_once_and_answers_as_the_polish_does(monkeypatch):
+    # The grader computes refineF for sandboxed code (autograder.sandbox.helpers); the same
+    # arguments again (a regrade, copies of the key) get the remembered answer, bit for bit.
+    import json
+    from collections import OrderedDict
+
+    import starter.refine_polish as refine_polish
+    from autograder.sandbox import helpers
+    from core import wire
+
+    real, calls = refine_polish.polish, []
+    monkeypatch.setattr(refine_polish, "polish", lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(helpers, "_POLISHED", OrderedDict())
+    rng = np.random.default_rng(11)
+    p1, p2, F = rng.uniform(0, 200, (12, 2)), rng.uniform(0, 200, (12, 2)), rng.normal(size=(3, 3))
+
+    def ask(F, p1, p2, switched_off=False):
+        record = {"event": "helper", "seq": 3, "name": "refineF", "args": wire.encode((F, p1, p2))}
+        reply = json.loads(helpers.answer(record, switched_off=switched_off, calls=1, limits=wire.Limits()))
+        return wire.decode(reply["value"], wire.Limits())
+
+    first = ask(F, p1, p2)
+    assert np.array_equal(first, real(F, p1, p2)) and len(calls) == 1
+    assert np.array_equal(ask(F.copy(), p1.copy(), p2.copy()), first) and len(calls) == 1
+    moved = p2.copy()
+    moved[0, 0] += 1e-9  # other points, however close: polished again
+    ask(F, p1, moved)
+    assert len(calls) == 2
+    off = ask(F, p1, p2, switched_off=True)  # the switched-off run never polishes
+    assert len(calls) == 2 and np.linalg.matrix_rank(off) == 2 and not np.allclose(off, first)
