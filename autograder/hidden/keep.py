@@ -3,7 +3,8 @@
 Making a run's hidden inputs costs about 3 s and each submission's draw about 2.5 s of the
 grader's CPU.  Grading the same code again under the same settings (a class graded again after a
 late hand-in, a regrade, a resumed batch, two copies of the answer key) makes exactly the same
-values again.  With a keep (``GradingRun(keep=FOLDER)``, or ``$HW4_KEEP_INPUTS`` naming the
+values again, and the grader's refineF (``autograder.sandbox.helpers``) polishes the same
+matrices again.  With a keep (``GradingRun(keep=FOLDER)``, or ``$HW4_KEEP_INPUTS`` naming the
 folder), what was made once is read back instead.
 
 A kept value is named by a digest of everything it is made from: the kit's code (every file of

@@ -44,7 +44,7 @@ import pytest
 from core.manifest import QUESTIONS, question
 from core.untrusted import for_terminal
 
-from .feedback import failure, named_mistakes, notes, tidy
+from .feedback import failure, named_mistakes, notes, tidy, upstream_named
 
 __all__ = ["HIDDEN_DIR", "CheckFailed", "Local", "config_of", "run_here", "LocalStudent", "Score", "Student", "StudentError"]
 
@@ -430,6 +430,12 @@ def student(request, grading_config, hidden):
         from autograder.budget import budget_of
 
         budget = budget_of(hidden, sandbox.limits)
+    from autograder.hidden.keep import Keep
+    from autograder.sandbox import helpers
+
+    keep = request.config.getoption("--keep")
+    # The grader's refineF results (a pure function, the costliest of Q2) are kept with the draws.
+    helpers.remember_in(Keep(keep).fetch if keep else None)
     session = sandbox.session(list(submission.units()), load_timeout=grading_config.load_timeout, budget=budget)
     request.config._hw4["session"] = session
     yield Student(session, grading_config.time_scale)
@@ -496,7 +502,7 @@ def pytest_runtest_makereport(item, call):
             store[item.nodeid] = (qid, tests)
             return
         fraction = 1.0 if score is None or score.value is None else score.value
-        text = "  \n".join(tidy(line) for line in (score.lines if score else []))
+        text = "  \n".join(tidy(line) for line in upstream_named(score.lines if score else [], qid))
         store[item.nodeid] = (qid, [TestResult(name, points * fraction, points, fraction >= 1.0, text, visibility,
                                                score.mistakes if score is not None else ())])
         return
@@ -504,7 +510,7 @@ def pytest_runtest_makereport(item, call):
         return
     exc = call.excinfo.value if call.excinfo is not None else None
     if isinstance(exc, CheckFailed):
-        feedback = "  \n".join(tidy(line) for line in exc.lines)
+        feedback = "  \n".join(tidy(line) for line in upstream_named(exc.lines, qid))
     elif isinstance(exc, AssertionError):
         message = str(exc).split("\nassert ")[0].strip() or "the check failed"
         feedback = tidy(message)

@@ -23,7 +23,7 @@ import numpy as np
 from core import refine_switch, wire
 from core.validate import as_points, same_length
 
-__all__ = ["MAX_HELPER_CALLS", "MAX_HELPER_POINTS", "answer"]
+__all__ = ["MAX_HELPER_CALLS", "MAX_HELPER_POINTS", "answer", "remember_in"]
 
 MAX_HELPER_POINTS = 20000   # a homework's matches number in the hundreds; Powell's cost grows with them
 MAX_HELPER_CALLS = 50       # per request: eightpoint calls refineF once, a careful student a few times
@@ -67,6 +67,14 @@ def _refineF(record: dict, switched_off: bool, calls: int, limits: wire.Limits):
 
 _POLISHED: OrderedDict[bytes, np.ndarray] = OrderedDict()  # digest of the arguments -> F, latest last
 _POLISHED_MAX = 4096
+_STORE: list = [None]  # fetch(parts, make) of the run's keep, when it has one
+
+
+def remember_in(fetch) -> None:
+    """Keep polished results between grading runs as well: ``fetch(parts, make)`` returns the value
+    kept under ``parts`` or makes and keeps it (``autograder.hidden.keep.Keep.fetch``, a folder of
+    the grader's own); None: in this process only."""
+    _STORE[0] = fetch
 
 
 def _polished(F: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
@@ -87,7 +95,9 @@ def _polished(F: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
     key = h.digest()
     found = _POLISHED.get(key)
     if found is None:
-        found = polish(F, p1, p2)
+        fetch = _STORE[0]
+        found = np.array(fetch(("refineF-polish", key.hex()), lambda: polish(F, p1, p2)) if fetch is not None
+                         else polish(F, p1, p2), dtype=np.float64)
         found.flags.writeable = False
         _POLISHED[key] = found
         if len(_POLISHED) > _POLISHED_MAX:
