@@ -2,19 +2,28 @@
 kit runs in: as root with namespaces, and at the ``uid`` level in a container like Gradescope's
 (Docker's default capabilities through ``setpriv``, a public Python's venv; ../shared/FIELD-NOTES.md).
 
-The attackers (tests/corpus/hostile.py); the one that could reach the next submission graded under
-the same uid is followed by an answer key:
+Two attackers (tests/corpus/hostile.py), each graded right before an answer key:
 
-- ``stashes_truth``: keeps every F the other questions' checks hand it (memory, home, /dev/shm) and
-  returns it from eightpoint, on the checks and on the pictures;
-- ``throws_refine_switch``: turns refineF's switch back on from inside the child;
-- ``kernel_and_outliving``: a note in the uid's keyring, gigabytes of memfd files, a user
+- ``a_stashes_truth_and_throws_switch``: both in-child attacks on Q2 in one submission.  Its
+  essentialMatrix and matcher keep every F the other questions' checks hand them (memory, home,
+  /dev/shm); its eightpoint returns a kept F when it finds one, else it is the polished transposed
+  eightpoint that first turns refineF's switch back on from inside the child.  When every
+  ``STASHED`` line reads 0 (no kept F ever found, on the checks or the pictures), every call
+  took the fallback, which is exactly the switch attack; Q2 then at or below half (as the
+  mistake without the trick, tests/test_fundamental_goals.py) says the switch did not work
+  either.  Alone, before their defences, the two scored 9.25 and 7 of 10; this one scores 9 of
+  10 when the grader polishes its switched-off run, as a thrown switch would have it;
+- ``c_kernel_and_outliving``: a note in the uid's keyring, gigabytes of memfd files, a user
   namespace; then a zombie-led process in a session of its own that kills the next processes of
   its uid, and 3,000-level folder trees in its home, /dev/shm and /run/lock.
 
-Every case is contained: the key graded right after it keeps full marks, the two Q2 attackers stay
-at or below half of Q2 (before: 9.25 and 7 of 10), the kernel refuses the channels, nothing of the sandbox's uids is left in the shared temporary folders, and the class
-ends with grades.csv.
+``b_then_key`` is the plain answer key; ``d_then_key`` is the key whose essentialMatrix also
+tries the kernel channels (looking for the note of ``c`` itself), with the key's answers.
+
+Every case is contained: each key keeps full marks, the Q2 attacker stays at or below half of
+Q2, the kernel refuses the channels, nothing of the sandbox's uids is left in the shared
+temporary folders, and the class ends with grades.csv.  Four submissions, as many as when only
+one attacker was followed by a key.
 """
 
 from __future__ import annotations
@@ -44,9 +53,8 @@ pytestmark = [
     pytest.mark.skipif(platform.machine() != "x86_64", reason="the attacks call x86_64 syscall numbers"),
 ]
 
-# The attacker that could harm the next submission graded under the same uid, and the key after it
-# (which looks for the first one's keyring note itself).
-KEYS_AFTER = {"c_kernel_and_outliving": "d_then_key"}
+# Each attacker and the key graded right after it (one at a time, in the order given).
+KEYS_AFTER = {"a_stashes_truth_and_throws_switch": "b_then_key", "c_kernel_and_outliving": "d_then_key"}
 # The kernel channels first (their essentialMatrix prints what the kernel said), then the hunter
 # and the deep trees.
 _BOTH = """
@@ -65,8 +73,9 @@ def _class(root: Path) -> list[Path]:
     transposed = variants.EIGHTPOINT_TRANSPOSED_REFINED
     subs = root / "subs"
     made = [
-        _key_with_cells(subs / "a_stashes_truth", hostile.stashes_truth(transposed)),
-        key_with(subs / "b_throws_refine_switch", "q2_eightpoint", hostile.throws_refine_switch(transposed)),
+        _key_with_cells(subs / "a_stashes_truth_and_throws_switch",
+                        hostile.stashes_truth_and_throws_switch(transposed)),
+        _key_with_cells(subs / "b_then_key", {}),
         key_with(subs / "c_kernel_and_outliving", "q3_metric_reconstruction",
                  hostile.KERNEL_CHANNELS + hostile.OUTLIVES_ITS_SANDBOX.replace(
                      "def essentialMatrix(", "def _outlive_then_essential(") + _BOTH),
@@ -117,19 +126,24 @@ def _contained(graded: dict, level: str) -> None:
     assert set(states) == set(graded["names"])
     assert {s["isolation"]["level"] for s in states.values()} == {level}
 
-    # The key graded right after each attacker keeps full marks.
+    # Each attacker is graded right before a key, and each key keeps full marks.
+    names = graded["names"]
+    assert set(names) == set(KEYS_AFTER) | set(KEYS_AFTER.values()), names
     for attacker, key in KEYS_AFTER.items():
+        assert names.index(key) == names.index(attacker) + 1, names
         assert full_marks(states[key]["scores"]) == [], (attacker, key, states[key]["scores"])
 
-    # Nothing crossed between checks or to the pictures (when drawn): the stash was filled, and never found.
-    stash = states["a_stashes_truth"]
-    assert any(int(n) >= 1 for n in _printed(stash, "KEPT")), stash["staff"]["stdout"][-2000:]
-    found = _printed(stash, "STASHED")
+    # Both attacks were made: F's were kept, and the switch was thrown.
+    q2 = states["a_stashes_truth_and_throws_switch"]
+    assert any(int(n) >= 1 for n in _printed(q2, "KEPT")), q2["staff"]["stdout"][-2000:]
+    assert _printed(q2, "SWITCH-THROWN"), q2["staff"]["stdout"][-2000:]
+    # Nothing crossed between checks or to the pictures (when drawn): no kept F was ever found, so
+    # every call of eightpoint was the switch attack ...
+    found = _printed(q2, "STASHED")
     assert found and set(found) == {"0"}, found
-    # The trick earns nothing: at or below half of Q2, as the same mistake without it (before: 9.25
-    # and 7 of 10; tests/test_fundamental_goals.py holds the mistake itself at or below half).
-    for attacker in ("a_stashes_truth", "b_throws_refine_switch"):
-        assert states[attacker]["scores"]["Q2"] <= 5, (attacker, states[attacker]["scores"]["Q2"])
+    # ... which earns nothing: at or below half of Q2, as the same mistake without it
+    # (tests/test_fundamental_goals.py holds the mistake itself at or below half).
+    assert q2["scores"]["Q2"] <= 5, q2["scores"]["Q2"]
 
     # The kernel refused the channels (EACCES from the syscall filter), in both submissions.
     for name in ("c_kernel_and_outliving", "d_then_key"):

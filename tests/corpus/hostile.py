@@ -659,12 +659,30 @@ def epipolarCorrespondence(im1, im2, F, x1, y1):
 
 def throws_refine_switch(eightpoint_cell: str) -> str:
     """The polished transposed eightpoint that first turns the refineF switch back on from inside,
-    every way it can (``core.refine_switch`` is importable from the sandbox)."""
-    return eightpoint_cell.replace("def eightpoint(pts1, pts2, M):\n", '''def eightpoint(pts1, pts2, M):
-    import core.refine_switch
+    every way it can (``core.refine_switch`` is importable from the sandbox), then prints
+    ``SWITCH-THROWN 1``: the attack was made, not stopped by an error before it.
+
+    eightpoint_cell : a cell defining ``def eightpoint(pts1, pts2, M):`` (ValueError otherwise).
+    """
+    head = "def eightpoint(pts1, pts2, M):\n"
+    if eightpoint_cell.count(head) != 1:
+        raise ValueError(f"eightpoint_cell: expected one {head.strip()!r}, got {eightpoint_cell.count(head)}")
+    return eightpoint_cell.replace(head, head + '''    import core.refine_switch
     core.refine_switch.is_off = lambda: False
     core.refine_switch._runs.clear()
+    print("SWITCH-THROWN", 1, flush=True)
 ''')
+
+
+def stashes_truth_and_throws_switch(eightpoint_cell: str) -> dict[str, str]:
+    """Both in-child attacks on Q2 in one submission: :func:`stashes_truth` whose own eightpoint,
+    used whenever no kept F is found, is :func:`throws_refine_switch` of ``eightpoint_cell``.
+
+    So each call of eightpoint either returns a kept F (the stash worked) or is exactly the switch
+    attack: when no call found a kept F (every ``STASHED`` line 0), a Q2 score no higher than the
+    mistake's own says the grader stopped both.
+    """
+    return stashes_truth(throws_refine_switch(eightpoint_cell))
 
 
 # A note left in the uid's keyring (which outlives the child) and read by the next submission's
