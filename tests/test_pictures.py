@@ -123,8 +123,6 @@ def test_q2_right_lines_pass_through_the_true_matches():
 @pytest.mark.parametrize("source, key, low", [
     (V.EIGHTPOINT_TRANSPOSED, "mean_distance_px", 2.0),
     (V.EIGHTPOINT_NOT_UNSCALED, "mean_distance_px", 100.0),
-    # refineF polishes the transposed F; switched off, its lines miss again
-    (V.EIGHTPOINT_TRANSPOSED_REFINED, "refineF_off_mean_distance_px", 2.0),
 ])
 def test_q2_wrong_lines_miss_the_matches(source, key, low):
     p = picture("Q2", source)
@@ -600,6 +598,43 @@ def test_q2_the_drawn_lines_pass_through_the_drawn_dots(monkeypatch):
     d = _dots_to_drawn_lines(figures[-1])
     assert d.max() > 5 and np.mean(d) > 2
     assert np.mean(d) == pytest.approx(wrong.measures["mean_distance_px"], rel=1e-6)
+
+
+def _sticks(ax) -> np.ndarray:
+    """The lengths in pixels of the red sticks (each match towards its line, magnified) of a large panel."""
+    (sticks,) = [c for c in ax.collections if c.get_gid() == "miss"]
+    return np.array([np.hypot(*(seg[1] - seg[0])) for seg in sticks.get_segments()])
+
+
+@slow
+def test_q2_a_polished_transposed_F_shows_where_it_misses(monkeypatch):
+    """refineF polishes a transposed F into a near miss as returned; switched off, the F misses the
+    matches by up to about twenty pixels, and its row shows it without a number to read: red sticks
+    from every match to its line, MISS_MAGNIFY times as long, and a first zoom, framed, on the match
+    farthest from its line, wide enough to show the line beside the dot."""
+    from starter.checks.pictures import q2_eightpoint as q2
+    from starter.checks.pictures.picture import fmt
+
+    figures = _captured(monkeypatch, q2)
+    p = picture("Q2", V.EIGHTPOINT_TRANSPOSED_REFINED)
+    m = p.measures
+    assert m["mean_distance_px"] < 1.0 < 2.0 < m["refineF_off_mean_distance_px"]
+    assert states(p.alt, m["refineF_off_mean_distance_px"]) and states(p.alt, m["refineF_off_largest_miss_px"])
+    fig = figures[-1]
+    own, off = fig.axes[0], fig.axes[1 + q2.N_ZOOMED]      # each row: its large panel, then its zooms
+    assert len(_sticks(own)) == len(_sticks(off)) > q2.N_DRAWN                   # every match, not the drawn ones
+    assert _sticks(own).max() == pytest.approx(q2.MISS_MAGNIFY * m["largest_miss_px"], rel=1e-6)
+    assert _sticks(own).max() < 5 and _sticks(off).max() > 100                  # invisible / a fifth of the image
+    assert _sticks(off).max() == pytest.approx(q2.MISS_MAGNIFY * m["refineF_off_largest_miss_px"], rel=1e-6)
+    zoom = off.figure.axes[2 + q2.N_ZOOMED]
+    assert zoom.get_title() == fmt(m["refineF_off_largest_miss_px"], "px")
+    (line,) = [a for a in zoom.lines if a.get_gid() == "student_line"]
+    (dot,) = [a for a in zoom.lines if a.get_gid() == "match"]
+    (x, y), (x0, x1), (y0, y1) = (dot.get_xdata()[0], dot.get_ydata()[0]), line.get_xdata(), line.get_ydata()
+    at_dot = x0 + (x1 - x0) * (y - y0) / (y1 - y0)        # where the near-vertical line crosses the dot's row
+    assert min(zoom.get_xlim()) < at_dot < max(zoom.get_xlim()) and abs(at_dot - x) > 15
+    (square,) = [a for a in off.lines if a.get_gid() == "largest_miss"]
+    assert (square.get_xdata()[0], square.get_ydata()[0]) == (x, y)
 
 
 @slow

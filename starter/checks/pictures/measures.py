@@ -20,6 +20,7 @@ _LINES = {
     "n_lines": ("epipolar lines drawn", ""),
     "mean_distance_px": ("mean distance of the true matches to your epipolar lines", "px"),
     "max_distance_px": ("largest distance of a true match to your epipolar line", "px"),
+    "largest_miss_px": ("largest distance of any true match to its epipolar line (the first zoom)", "px"),
     "true_F_mean_distance_px": ("mean distance of the true matches to the true F's lines (the noise)", "px"),
     "lines_in_image": ("your epipolar lines that cross image 2", ""),
 }

@@ -6,10 +6,14 @@ then (the self-check's switch, ``core.refine_switch``: refineF can hide a transp
 grader the same switch thrown in the sandbox, see :func:`run`); and on the same points as uint16,
 the data files' type.  Each F (3, 3) maps a point of image 1 to its line in image 2 (x2^T F x1 = 0).
 
-Trusted side (:func:`draw`): one panel per F; in each, image 2 with the lines F x1 of eight matches
-spread over the temple (solid) and of the true F (dashed, default data only), and the true
-matching points (dots).  A right F's lines pass through the dots; a transposed or unscaled F's miss
-them by tens of pixels; a rank-3 F's lines pass near them but do not meet in one epipole.
+Trusted side (:func:`draw`): one row per F; in each, image 2 with the lines F x1 of eight matches
+spread over the temple (solid) and of the true F (dashed, default data only), the true matching
+points (dots), and from every match a red stick towards its line, MISS_MAGNIFY times its distance;
+beside it, zooms on the eight matches farthest from their lines.  A right F's lines pass through
+the dots and its sticks vanish; a transposed F's (refineF switched off) miss by up to about twenty
+pixels on this near-vertical pencil (sticks a fifth of the image long, the first zoom with the line
+beside the dot); an unscaled one's by hundreds; a rank-3 F's lines pass near the dots but do not
+meet in one epipole (said in the row's title).
 """
 
 from __future__ import annotations
@@ -24,14 +28,22 @@ from .drawing import clip_line, image, line_distances
 from .picture import Picture, figure, fmt, to_picture
 from .public import NO_TRUTH, temple
 
-__all__ = ["FUNCTIONS", "N_DRAWN", "ZOOM_PX", "draw", "drawn_rows", "lines_row", "run"]
+__all__ = ["FUNCTIONS", "MISS_MAGNIFY", "N_DRAWN", "N_ZOOMED", "ZOOM_MAX_PX", "ZOOM_PX", "draw", "drawn_rows",
+           "lines_row", "run"]
 
 FUNCTIONS = ("eightpoint",)
 N_DRAWN = 8
 ZOOM_PX = 12
+# The zooms of a row with all its matches: the N_ZOOMED farthest from their lines, at most
+# ZOOM_MAX_PX wide each way; each match's miss drawn MISS_MAGNIFY times as long (one factor for
+# every F: a right F's sub-pixel misses stay invisible, a transposed F's few pixels do not).
+N_ZOOMED = 8
+ZOOM_MAX_PX = 60.0
+MISS_MAGNIFY = 10.0
 # outputs name -> panel label
 _RUNS = {"F": "your F", "F_refineF_off": "your F, refineF switched off", "F_uint16": "your F from uint16 points"}
 _KEYS = {"F": "", "F_refineF_off": "refineF_off_", "F_uint16": "uint16_"}
+_FRAME = "#8e24aa"   # the largest miss: its square on the large panel, the frame of its zoom
 
 
 def _F(value, what: str) -> np.ndarray:
@@ -99,18 +111,38 @@ def _segments(ax, lines, w, h, **style) -> None:
             ax.plot(*seg, **style)
 
 
-def lines_row(fig, grid, row, d, label, F, truth_F, h1, p2, zoom):
+def _misses(ax, lines, pts, magnify: float) -> None:
+    """One red stick per point of ``pts`` (n, 2), from the point towards the foot of its perpendicular
+    on its line of ``lines`` (n, 3), ``magnify`` times as long as the distance: a right F's sticks
+    vanish into the dots, a wrong F's show which way and where its lines miss."""
+    from matplotlib.collections import LineCollection
+
+    with np.errstate(all="ignore"):
+        n2 = lines[:, 0] ** 2 + lines[:, 1] ** 2
+        r = (lines[:, 0] * pts[:, 0] + lines[:, 1] * pts[:, 1] + lines[:, 2]) / n2
+        ends = pts - magnify * r[:, None] * lines[:, :2]
+    ok = np.all(np.isfinite(ends), axis=1)
+    ax.add_collection(LineCollection(np.stack([pts[ok], ends[ok]], axis=1), colors="#ff1744", linewidths=1.6,
+                                     zorder=5, gid="miss"), autolim=False)
+
+
+def lines_row(fig, grid, row, d, label, F, truth_F, h1, p2, zoom, every=None):
     """Row ``row`` of ``grid`` (rows 2*row, 2*row + 1 of a 5-column grid): image 2 with the lines (left),
-    then one zoom of ``zoom`` px around each dot (eight zooms).
+    then eight zooms of at least ``zoom`` px around a dot each.
 
     ``d.im2`` is image 2 (H, W[, 3]); ``F`` and ``truth_F`` (3, 3, truth may be None) map points of
     image 1 to lines of image 2; ``h1`` (n, 3) homogeneous points of image 1, ``p2`` (n, 2) their
-    matches in image 2, pixels (x, y).  Returns (the large Axes, the (n,) distances of p2 to F's lines).
+    matches in image 2, pixels (x, y): their lines are drawn.  ``every`` (h1 (N, 3), p2 (N, 2)), all
+    the matches, or None: when given, each of them gets a stick to its line MISS_MAGNIFY times its
+    distance, and the zooms go to the N_ZOOMED farthest from their lines, the farthest first (framed
+    on the large panel), wide enough to show the line (up to ZOOM_MAX_PX); without it the zooms go
+    to the drawn dots.  Returns (the large Axes, the (n,) distances of p2 to F's lines).
     Also Q3.1's figure's rows.
     """
     h, w = d.im2.shape[:2]
     big = fig.add_subplot(grid[2 * row:2 * row + 2, 0])
     image(big, d.im2, label)
+    big.tick_params(labelsize=8)
     style_true = dict(color="#4fc3f7", lw=1.0, ls="--", zorder=3, gid="true_line")
     style_own = dict(color="#ffb300", lw=1.4, zorder=2, gid="student_line")
     if truth_F is not None:
@@ -118,6 +150,19 @@ def lines_row(fig, grid, row, d, label, F, truth_F, h1, p2, zoom):
     lines = h1 @ F.T
     _segments(big, lines, w, h, **style_own)
     big.plot(p2[:, 0], p2[:, 1], "o", ms=5, mfc="#e53935", mec="white", zorder=4, gid="match")
+    zh1, zp2, half = h1, p2, float(zoom)
+    if every is not None:
+        all_h1, all_p2 = (np.asarray(a, float) for a in every)
+        all_lines = all_h1 @ F.T
+        big.plot(all_p2[:, 0], all_p2[:, 1], "o", ms=2.5, mfc="#e53935", mec="none", zorder=4, gid="all_matches")
+        _misses(big, all_lines, all_p2, MISS_MAGNIFY)
+        far = np.nan_to_num(line_distances(all_lines, all_p2), nan=np.inf)
+        pick = np.argsort(-far, kind="stable")[:N_ZOOMED]
+        zh1, zp2 = all_h1[pick], all_p2[pick]
+        if np.isfinite(far[pick[0]]):
+            half = float(np.clip(1.3 * far[pick[0]], zoom, ZOOM_MAX_PX))
+        x, y = zp2[0]
+        big.plot([x], [y], "s", ms=14, mfc="none", mec=_FRAME, mew=2.0, zorder=6, gid="largest_miss")
     if row == 0:
         from matplotlib.lines import Line2D
 
@@ -126,20 +171,27 @@ def lines_row(fig, grid, row, d, label, F, truth_F, h1, p2, zoom):
         if truth_F is not None:
             handles.insert(1, Line2D([], [], **style_true))
             names.insert(1, "true F's lines")
-        big.legend(handles, names, loc="lower right", fontsize=7, framealpha=0.8)
-    for k, (x, y) in enumerate(p2):
+        if every is not None:
+            handles.append(Line2D([], [], color="#ff1744", lw=1.6))
+            names.append(f"miss x{MISS_MAGNIFY:g}")
+        big.legend(handles, names, loc="lower right", fontsize=8, framealpha=0.8)
+    zlines = zh1 @ F.T
+    for k, (x, y) in enumerate(zp2):
         ax = fig.add_subplot(grid[2 * row + k // 4, 1 + k % 4])
         image(ax, d.im2)
-        one = [lines[k]] + ([] if truth_F is None else [h1[k] @ truth_F.T])
-        _segments(ax, one[:1], w, h, **style_own)
+        _segments(ax, zlines[k:k + 1], w, h, **style_own)
         if truth_F is not None:
-            _segments(ax, one[1:], w, h, **style_true)
+            _segments(ax, zh1[k:k + 1] @ truth_F.T, w, h, **style_true)
         ax.plot([x], [y], "o", ms=6, mfc="#e53935", mec="white", zorder=4, gid="match")
-        ax.set_xlim(x - zoom, x + zoom)
-        ax.set_ylim(y + zoom, y - zoom)
+        ax.set_xlim(x - half, x + half)
+        ax.set_ylim(y + half, y - half)
         ax.set_xticks([])
         ax.set_yticks([])
-        ax.set_title(f"{line_distances(lines[k:k + 1], p2[k:k + 1])[0]:.2g} px", fontsize=7)
+        ax.set_title(fmt(line_distances(zlines[k:k + 1], zp2[k:k + 1])[0], "px"), fontsize=10)
+        if every is not None and k == 0:
+            for side in ax.spines.values():
+                side.set_edgecolor(_FRAME)
+                side.set_linewidth(2.5)
     return big, line_distances(lines, p2)
 
 
@@ -147,11 +199,13 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     """The Picture of Q2 from run()'s outputs (validated here), on the public data of ``root``.
 
     One row per F (as returned; refineF switched off; from uint16 points): image 2 with the lines of
-    the drawn matches, and a zoom of ZOOM_PX pixels around each match (a transposed F misses by a
-    few pixels on this near-vertical pencil of lines: visible in the zooms).
+    the drawn matches and every match's miss magnified (MISS_MAGNIFY), and zooms on the matches
+    farthest from their lines (a transposed F misses by a few pixels on this near-vertical pencil of
+    lines, up to about twenty: the red sticks and the zooms show it without reading a number).
 
     measures: mean_distance_px, max_distance_px (the drawn true matches to the lines of the F as
-    returned), refineF_off_mean_distance_px, uint16_mean_distance_px (when those runs exist),
+    returned), largest_miss_px (of all the true matches, the first zoom), refineF_off_mean_distance_px,
+    refineF_off_largest_miss_px, uint16_mean_distance_px, uint16_largest_miss_px (when those runs exist),
     uint16_F_change (0 when the uint16 points give the same F as the float ones, up to scale; about
     1 when unrelated), true_F_mean_distance_px (default data only), s3_over_s2 (of the F as
     returned, on points / M: about 0 when rank 2), n_lines, lines_in_image (of the F as returned: an
@@ -174,40 +228,50 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         p1, p2, truth_F, dots = d.pts1, d.pts2, None, "the given matches (noisy)"
     rows = drawn_rows(p1, N_DRAWN)
     h1 = np.column_stack([p1[rows], np.ones(len(rows))])
-    fig = figure(size=(11.0, 3.6 * len(drawn)))[0]
+    every = (np.column_stack([p1, np.ones(len(p1))]), p2)
+    # 9 in at 90 dpi: 810 px, about what Gradescope shows, so its copy keeps the fonts' size
+    fig = figure(size=(9.0, 3.5 * len(drawn) + 0.4))[0]
     fig.clear()
     grid = fig.add_gridspec(2 * len(drawn), 5, width_ratios=[3.2, 1, 1, 1, 1])
     measures: dict[str, float] = {"n_lines": float(len(rows))}
-    parts = []
+    parts, parts_far = [], []
     for row, (key, F) in enumerate(drawn.items()):
-        big, dist = lines_row(fig, grid, row, d, _RUNS[key], F, truth_F, h1, p2[rows], ZOOM_PX)
+        big, dist = lines_row(fig, grid, row, d, _RUNS[key], F, truth_F, h1, p2[rows], ZOOM_PX, every)
         mean = float(np.mean(dist)) if np.all(np.isfinite(dist)) else float("inf")
-        note = f"{_RUNS[key]}: dots {fmt(mean, 'px')} from the lines on average"
+        far = line_distances(every[0] @ F.T, p2)
+        largest = float(np.max(far)) if np.all(np.isfinite(far)) else float("inf")
+        note = f"{_RUNS[key]}\ndots {fmt(mean, 'px')} from their lines on average, up to {fmt(largest, 'px')}"
         measures[f"{_KEYS[key]}mean_distance_px"] = mean
+        measures[f"{_KEYS[key]}largest_miss_px"] = largest
+        parts_far.append(f"{_RUNS[key]}: {fmt(largest, 'px')}")
         if key == "F":
             measures["max_distance_px"] = float(np.max(dist)) if np.all(np.isfinite(dist)) else float("inf")
             h, w = d.im2.shape[:2]
             measures["lines_in_image"] = float(sum(clip_line(ln, w, h) is not None for ln in h1 @ F.T))
         if key == "F_uint16":
             measures["uint16_F_change"] = _change(F, Fs["F"])
-            note += f"; differs from the F of float points by {measures['uint16_F_change']:.3g}"
+            note += f"\ndiffers from the F of float points by {measures['uint16_F_change']:.3g}"
         if key == "F" and _s3_over_s2(F, d.M) > 1e-6:
-            note += f"\nfull rank (s3/s2 = {_s3_over_s2(F, d.M):.2g}): its lines do not meet in one epipole"
-        big.set_title(note, fontsize=9)
+            note += f"\nfull rank (s3/s2 = {_s3_over_s2(F, d.M):.2g}, not 0): no one epipole"
+        big.set_title(note, fontsize=10)
         parts.append(f"{_RUNS[key]}: {fmt(mean, 'px')}")
     if "F_uint16" in Fs and "F_uint16" not in drawn:
         measures["uint16_F_change"] = _change(Fs["F_uint16"], Fs["F"])
         measures["uint16_mean_distance_px"] = measures["mean_distance_px"]
+        measures["uint16_largest_miss_px"] = measures["largest_miss_px"]
     if truth_F is not None:
         measures["true_F_mean_distance_px"] = float(np.mean(line_distances(h1 @ truth_F.T, p2[rows])))
     measures["s3_over_s2"] = _s3_over_s2(Fs["F"], d.M)
     rank = "rank 2" if measures["s3_over_s2"] <= 1e-6 else "full rank: its lines do not meet in one epipole"
     alt = (f"Image 2 with {len(rows)} epipolar lines of your F (solid, orange)"
            + (" and of the true F (dashed, blue)" if truth_F is not None else "")
-           + f" through {dots} (red dots), and a zoom of {ZOOM_PX} px around each dot. "
+           + f" through {dots} (red dots); a red stick from each of the {len(p1)} matches towards its line, "
+           + f"{MISS_MAGNIFY:g} times its distance; and zooms of at least {ZOOM_PX} px on the {N_ZOOMED} matches "
+           + "farthest from their lines, the farthest framed in purple (its square on the image). "
            + "Mean distance of the dots to your lines: " + "; ".join(parts)
            + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}"
               if truth_F is not None else "")
+           + ". Largest distance of a match to its line: " + "; ".join(parts_far)
            + (f". The F of uint16 points differs from the F of float points by {measures['uint16_F_change']:.3g} "
               "(0: the same up to scale)" if "uint16_F_change" in measures else "")
            + f". {int(measures['lines_in_image'])} of your {len(rows)} lines cross image 2"
