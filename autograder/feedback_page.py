@@ -30,6 +30,7 @@ from pathlib import Path
 from core.text import points, write_atomic
 from core.untrusted import for_html
 
+from .causes import said_once
 from .pictures import finite_measures, measures_in_words
 from .results import QuestionResult, SubmissionResult
 
@@ -65,31 +66,11 @@ def figure_html(figure, image: tuple[str, bytes] | None = None) -> str:
             + (f"<table>{rows}</table>" if rows else "") + "</figure>")
 
 
-LIKELY = "Likely mistake: "   # how a check's feedback names a catalogue mistake (autograder.hidden.feedback)
-
-
-def _once(text: str, qid: str, said: dict | None) -> str:
-    """``text`` with each "Likely mistake: <name>." said in full the first time only on the page
-    (``said``: name -> the question where it was said; None: nothing is shortened)."""
-    if said is None:
-        return text
-    out = []
-    for line in text.splitlines():
-        if line.startswith(LIKELY):
-            name = line[len(LIKELY):].split(". ", 1)[0].rstrip(".")
-            if name in said:
-                line = f"{LIKELY}{name} (the same cause as above, under {said[name]})"
-            else:
-                said[name] = qid
-        out.append(line)
-    return "\n".join(out)
-
-
 def verdict_lines(q: QuestionResult, *, feedback: bool = True, said: dict | None = None) -> str:
     """The question's verdict lines as HTML: its failed checks first (points, and with
     ``feedback`` what was measured and expected, in words), then the passed ones, one line each,
     then the hidden checks summed up.  ``said``: the likely mistakes named earlier on the page
-    (see :func:`_once`): one cause is explained once."""
+    (``autograder.causes.said_once``): one cause is explained once."""
     shown = [t for t in q.tests if t.visibility != "hidden"]
     hidden = [t for t in q.tests if t.visibility == "hidden"]
     parts = [f"<p class=\"note\">{for_html(n)}</p>" for n in q.notes]
@@ -98,7 +79,7 @@ def verdict_lines(q: QuestionResult, *, feedback: bool = True, said: dict | None
         status = "passed" if t.passed else "failed"
         parts.append(f"<li><span class=\"{status}\">{status}</span>: {for_html(t.name, newlines=False)} "
                      f"({points(t.score)} / {points(t.max_score)})"
-                     + (f"<div class=\"fb\">{for_html(_once(t.feedback, q.id, said))}</div>"
+                     + (f"<div class=\"fb\">{for_html(said_once(t.feedback, q.id, said))}</div>"
                         if feedback and t.feedback and not t.passed
                         else "") + "</li>")
     if hidden:

@@ -21,6 +21,8 @@ from pathlib import Path
 from core.manifest import QUESTIONS, Question
 from core.untrusted import for_terminal
 
+from .causes import said_once
+
 __all__ = ["ASSIGNMENT", "COURSE_ID", "HIDDEN_PREFIX", "add_grade_cli", "autograded_scores", "grade_course",
            "gradebook", "kit_scores", "tools_path"]
 
@@ -53,10 +55,13 @@ def _describe(q) -> str:
     lines = [f"{q.id} {q.title}: {q.score:g} / {q.max_score:g} points{credit}"]
     lines += [f"- {n}" for n in q.notes]
     hidden = [t for t in q.tests if t.visibility == "hidden"]
+    said: dict = {}   # one likely mistake per cause: its hint in the first check naming it
     for t in q.tests:
         if t.visibility != "hidden":
             verdict = "passed" if t.passed else "failed"
-            lines.append(f"- {t.name}: {verdict} ({t.score:g} / {t.max_score:g})" + (f". {t.feedback}" if t.feedback else ""))
+            feedback = said_once(t.feedback, q.id, said)
+            lines.append(f"- {t.name}: {verdict} ({t.score:g} / {t.max_score:g})"
+                         + (f". {feedback}" if feedback else ""))
     if hidden:
         lines.append(f"- {len(hidden)} hidden check(s): {sum(t.score for t in hidden):g} / "
                      f"{sum(t.max_score for t in hidden):g}")

@@ -40,6 +40,8 @@ from core.manifest import QUESTIONS, question
 from core.text import points
 from core.untrusted import for_csv_cell, for_markdown, visible
 
+from .causes import said_once
+
 __all__ = [
     "VISIBILITIES",
     "QuestionResult",
@@ -52,6 +54,9 @@ __all__ = [
 ]
 
 VISIBILITIES = ("visible", "hidden", "after_due_date", "after_published")
+# When a student sees a check of each visibility, earliest first: a check's feedback refers back
+# only to checks shown no later (autograder.causes.said_once).
+_SHOWN_ORDER = {v: k for k, v in enumerate(("visible", "after_due_date", "after_published", "hidden"))}
 _FEEDBACK_LIMIT = 2000
 _TOL = 1e-9
 
@@ -292,8 +297,9 @@ class SubmissionResult:
             return out
         if layout is None:
             for q in self.questions:
+                said: dict = {}
                 for k, t in enumerate(q.tests, start=1):
-                    text = _check_output(q, k, t)
+                    text = _check_output(q, k, t, said, _SHOWN_ORDER[t.visibility])
                     out["tests"].append({
                         "name": f"{q.id} {visible(t.name, newlines=False)}" + (" (extra credit)" if q.extra_credit else ""),
                         "number": f"{q.id[1:]}.{k}",
@@ -305,7 +311,7 @@ class SubmissionResult:
                         **_recorded_mistakes(t),
                     })
             return out
-        order = {v: k for k, v in enumerate(("visible", "after_due_date", "after_published", "hidden"))}
+        order = _SHOWN_ORDER
         base = [q for q in self.questions if not q.extra_credit]
         extra = [q for q in self.questions if q.extra_credit]
         lines = [f"**Base points: {points(sum(q.score for q in base))} / {points(sum(q.max_score for q in base))}**"]
@@ -332,9 +338,10 @@ class SubmissionResult:
                 "visibility": layout["scores"],
             })
         for q in self.questions:
+            said = {}
             for k, t in enumerate(q.tests, start=1):
-                text = _check_output(q, k, t)
                 shown = max(layout["checks"], t.visibility, key=order.__getitem__)
+                text = _check_output(q, k, t, said, order[shown])
                 out["tests"].append({
                     "name": f"{q.id} check: {visible(t.name, newlines=False)} ({points(t.score)} / {points(t.max_score)})",
                     "number": f"{q.id[1:]}.{k}",
@@ -394,8 +401,10 @@ class SubmissionResult:
                 hidden_score = f"{points(sum(t.score for t in hidden))} / {points(sum(t.max_score for t in hidden))}"
                 parts += ["", f"{len(hidden)} hidden check(s): {hidden_score}"]
             details = [t for t in shown if t.feedback]
+            said: dict = {}
             if details:
-                parts += [""] + [f"- **{_cell(t.name)}**: {for_markdown(t.feedback)}" for t in details]
+                parts += [""] + [f"- **{_cell(t.name)}**: {for_markdown(said_once(t.feedback, q.id, said))}"
+                                 for t in details]
         if audience == "staff" and self.isolation:
             iso = self.isolation
             network = "cut" if iso.get("network_isolated") else "NOT cut"
@@ -467,7 +476,9 @@ def _cell(text: str) -> str:
     return for_markdown(text, newlines=False)
 
 
-def _check_output(q: QuestionResult, k: int, t: TestResult) -> str:
+def _check_output(q: QuestionResult, k: int, t: TestResult, said: dict, rank: int) -> str:
     """A check's output in results.json (Markdown): the question's notes with its first check, then
-    its feedback."""
-    return "\n".join(for_markdown(x) for x in [*(q.notes if k == 1 else ()), t.feedback] if x)
+    its feedback, a likely mistake of the question's checks before it (``said``, updated) named
+    without its hint again (``autograder.causes.said_once``; ``rank``: when the check is shown)."""
+    feedback = said_once(t.feedback, q.id, said, rank)
+    return "\n".join(for_markdown(x) for x in [*(q.notes if k == 1 else ()), feedback] if x)

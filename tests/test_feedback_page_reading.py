@@ -76,11 +76,39 @@ def test_gradescopes_copy_of_a_picture_is_small():
 
 
 def test_one_likely_mistake_per_cause():
-    line = "Likely mistake: depth tested in one camera only. Keep the candidate with the points in front of both."
-    q33 = QuestionResult.of("Q3.3", [TestResult("the right camera", 0.0, 8.0, feedback=f"case 1: wrong\n{line}"),
-                                     TestResult("C2 = K2 M2", 0.0, 2.0, feedback=line)])
-    q5 = QuestionResult.of("Q5", [TestResult("bundle adjustment", 0.0, 20.0, feedback=f"start from findM2\n{line}")])
-    page = feedback_page.page(SubmissionResult((q33, q5)), {})
-    assert page.count("Keep the candidate with the points in front of both") == 1
+    """One findM2 bug fails several checks: each names the mistake (each costs points), the first of a
+    question gives the hint, in feedback.md, results.json and the page; the class report counts it once."""
+    from autograder.review.report import build_report
+
+    hint = "Keep the candidate with the points in front of both"
+    line = f"Likely mistake: depth tested in one camera only. {hint}."
+    depth = {"mistakes": ("depth_one_camera",)}
+    q33 = QuestionResult.of("Q3.3", [
+        TestResult("the right camera", 0.0, 8.0, feedback=f"case 1: wrong  \n{line}", **depth),
+        TestResult("C2 = K2 M2", 0.0, 2.0, feedback=line, **depth)])
+    q5 = QuestionResult.of("Q5", [
+        TestResult("bundle adjustment", 0.0, 20.0, feedback=f"start from findM2\n{line}", **depth)])
+    result = SubmissionResult((q33, q5))
+    page = feedback_page.page(result, {})
+    assert page.count(hint) == 1
     assert page.count("Likely mistake: depth tested in one camera only") == 3   # named where it costs points
     assert "the same cause as above, under Q3.3" in page[page.index('id="Q5"'):]
+    md = result.feedback_markdown()
+    assert md[md.index("## Q3.3"):md.index("## Q5")].count(hint) == 1 and md.count(hint) == 2   # once per question
+    assert "depth tested in one camera only (the same cause as above" in md
+    from autograder.nbgrader_grade import _describe
+
+    assert _describe(q33).count(hint) == 1 and _describe(q33).count("Likely mistake: depth tested") == 2   # nbgrader's
+    for layout in (None, {"checks": "visible"}):
+        q33_outputs = [t["output"] for t in result.to_gradescope(layout)["tests"] if t["name"].startswith("Q3.3 check")
+                       or layout is None and t["name"].startswith("Q3.3 ")]
+        assert len(q33_outputs) == 2 and [hint in o for o in q33_outputs] == [True, False], q33_outputs
+        assert all("Likely mistake: depth tested in one camera only" in o for o in q33_outputs)
+    # a hint given only where it is shown later is given again where it is shown at once
+    late = QuestionResult.of("Q3.3", [
+        TestResult("the right camera", 0.0, 8.0, feedback=line, visibility="after_published"),
+        TestResult("C2 = K2 M2", 0.0, 2.0, feedback=line)])
+    assert all(hint in t["output"] for t in SubmissionResult((late,)).to_gradescope()["tests"])
+    rep = build_report({"adam": result.to_gradescope(), "bea": result.to_gradescope({"checks": "visible"})})
+    assert {k: sorted(v) for k, v in rep.mistakes.items()} == {(q, "depth tested in one camera only"): ["adam", "bea"]
+                                                              for q in ("Q3.3", "Q5")}

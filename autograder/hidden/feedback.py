@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from autograder.causes import LIKELY
 from core.untrusted import visible
 from judging.hints import numpy2_hint
 from judging.verdict import Malformed, same_error
@@ -206,8 +207,8 @@ def collapse(lines: Sequence[str]) -> list[str]:
 
 
 def mistake_note(m) -> str:
-    """'Likely mistake: <name>. <hint>' for a catalogue Mistake."""
-    return f"Likely mistake: {m.name}. {m.hint[0].upper()}{m.hint[1:]}"
+    """'Likely mistake: <name>. <hint>' for a catalogue Mistake (its line: ``autograder.causes``)."""
+    return f"{LIKELY}{m.name}. {m.hint[0].upper()}{m.hint[1:]}"
 
 
 def named_mistakes(mistakes: Sequence = (), *, passed: bool = False) -> list:
