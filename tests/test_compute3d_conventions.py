@@ -7,7 +7,8 @@ under one of the sweep's secrets:
 - 2022-2024's compute3D_pts(temple_pts1, intrinsics, F, im1, im2) indexing temple_pts1['x1'] (the
   loaded templeCoords mapping) is called with the mapping and gets full marks;
 - when compute3D_pts raises and the matcher raises on some points, the feedback names the function
-  that raised, the exception and how many points it failed on (not only "no result").
+  that raised, the exception and how many points it failed on (not only "no result"), and the
+  question of each function it fell back to ("triangulate (Q3.2)").
 """
 
 from __future__ import annotations
@@ -74,6 +75,8 @@ def test_the_fallback_names_the_function_that_raised(hidden):
 
     score, full, feedback = _q42(hidden, compute3D_pts=compute3D_pts, epipolarCorrespondence=epipolarCorrespondence)
     assert score < full, feedback
-    assert "graded through your epipolarCorrespondence and triangulate (compute3D_pts: " in feedback, feedback
+    # the functions of other questions it fell back to are named with their questions
+    fell_back = "graded through your epipolarCorrespondence (Q4.1) and triangulate (Q3.2) (compute3D_pts: "
+    assert fell_back in feedback, feedback
     assert "KeyError" in feedback, feedback
     assert "epipolarCorrespondence failed on " in feedback and "ValueError: window out of the image" in feedback, feedback

@@ -196,3 +196,23 @@ def test_the_mistakes_a_check_names_are_the_ones_its_feedback_says():
     assert named_mistakes(found, passed=True) == [] and notes(["a: x"], found, passed=True) == ["a: x"]
     said = [line for line in notes(["a: x"], found) if line.startswith("Likely mistake: ")]
     assert said == [f"Likely mistake: {m.name}. {m.hint[0].upper()}{m.hint[1:]}" for m in named_mistakes(found)]
+
+
+def test_a_function_of_another_question_is_named_with_its_question():
+    """A check that runs another question's function (Q4.2 falling back to the matcher and triangulate)
+    names that question at the function's first mention, as the pictures do; a call, a file, the
+    check's own function and a name already followed by its question are left as they are."""
+    from autograder.hidden.feedback import upstream_named
+
+    lines = ["graded through your epipolarCorrespondence and triangulate (compute3D_pts: compute3D_pts raised "
+             "KeyError: temple (in compute3D_pts, cell 3, line 2))",
+             "epipolarCorrespondence failed on 3 of 40 points",
+             "triangulate: triangulate raised ValueError; called as triangulate(C1: a 3x4 float64 array)"]
+    named = upstream_named(lines, "Q4.2")
+    assert named[0] == ("graded through your epipolarCorrespondence (Q4.1) and triangulate (Q3.2) (compute3D_pts: "
+                        "compute3D_pts raised KeyError: temple (in compute3D_pts, cell 3, line 2))")
+    assert named[1:] == lines[1:]                                  # the first mention only
+    assert upstream_named(lines[2:], "Q4.2") == ["triangulate (Q3.2): " + lines[2].removeprefix("triangulate: ")]
+    assert upstream_named(lines[2:], "Q3.2") == lines[2:]          # its own question: nothing to add
+    kept = ["triangulate(C1) in triangulate.py", "my_triangulate and triangulated", "triangulate (Q3.2) raised"]
+    assert upstream_named(kept, "Q5") == kept

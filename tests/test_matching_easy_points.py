@@ -234,7 +234,7 @@ def test_another_years_compute3D_pts_returning_cameras_is_judged_by_its_structur
     assert q42.score == q42.max_score, [t.feedback for t in q42.tests]
     feedback = q42.tests[0].feedback
     assert "on the temple's surface, up to a similarity" in feedback
-    route = ("graded through your epipolarCorrespondence and triangulate" if save
+    route = ("graded through your epipolarCorrespondence (Q4.1) and triangulate (Q3.2)" if save
              else "graded through your compute3D_pts(temple_pts1, intrinsics, F, im1, im2)")
     assert feedback.startswith(route), feedback
 

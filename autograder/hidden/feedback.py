@@ -12,12 +12,13 @@ import re
 from collections.abc import Sequence
 
 from autograder.causes import LIKELY
+from core.manifest import QUESTIONS
 from core.untrusted import visible
 from judging.hints import numpy2_hint
 from judging.verdict import Malformed, same_error
 
 __all__ = ["PARAMETERS", "called_as", "collapse", "exception_sentence", "failure", "kind", "mistake_note",
-           "named_mistakes", "notes", "read_returned", "returned", "tidy", "value_of"]
+           "named_mistakes", "notes", "read_returned", "returned", "tidy", "upstream_named", "value_of"]
 
 # A feedback line of a failed call holds the failure (its message cut to _FIRST_LINE_LIMIT), the
 # call with the kind of each argument (seven arguments take about 200 characters) and what came back.
@@ -228,3 +229,29 @@ def notes(lines: Sequence[str], mistakes: Sequence = (), *, passed: bool = False
     """The feedback lines of a check: ``lines`` merged, then each mistake named once unless passed."""
     out = collapse([str(line) for line in lines if line])
     return out + [mistake_note(m) for m in named_mistakes(mistakes, passed=passed)]
+
+
+# Each function a student writes -> its question (core.manifest), for naming it in another's feedback.
+_QUESTION_OF = {f: q.id for q in QUESTIONS for f in q.functions}
+# A function's name as a word: not part of a longer name, a call "f(", a file "f.py", or already "f (Q3.2)".
+_MENTION = {f: re.compile(rf"(?<![\w.]){re.escape(f)}(?![\w(])(?!\.\w)(?! \(Q)") for f in _QUESTION_OF}
+
+
+def upstream_named(lines: Sequence[str], question: str) -> list[str]:
+    """``lines`` of a check of ``question`` with each function of another question named with that
+    question at its first mention: "graded through your epipolarCorrespondence (Q4.1) and
+    triangulate (Q3.2)".  A check that runs an earlier answer (Q4.2 falling back to the matcher and
+    triangulate) so says whose question to look at, as the pictures do; a call ("triangulate(C1:
+    ...)") and the check's own functions are left as they are."""
+    out, named = [], set()
+    for line in lines:
+        line = str(line)
+        for f, pattern in _MENTION.items():
+            if f in named or _QUESTION_OF[f] == question or f not in line:
+                continue
+            m = pattern.search(line)
+            if m is not None:
+                line = f"{line[:m.end()]} ({_QUESTION_OF[f]}){line[m.end():]}"
+                named.add(f)
+        out.append(line)
+    return out
