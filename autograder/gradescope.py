@@ -142,7 +142,7 @@ def _kept(path: Path, root: Path) -> bool:
     return not (any(p in _SKIP_PARTS or p.startswith(".") for p in parts) or path.name.endswith(_SKIP_SUFFIXES))
 
 
-def _package_files(root: Path, package: str) -> list[Path]:
+def package_files(root: Path, package: str) -> list[Path]:
     folder = root / package
     if not (folder / "__init__.py").is_file():
         raise FileNotFoundError(f"kit_root: expected the package {package}/ in {root}, found none")
@@ -161,7 +161,7 @@ def grader_files(kit_root: str | Path = KIT_ROOT) -> list[tuple[str, Path]]:
         When a package or requirements.txt is missing from ``kit_root``.
     """
     root = Path(kit_root).resolve()
-    files = [p for pkg in PACKAGES for p in _package_files(root, pkg)]
+    files = [p for pkg in PACKAGES for p in package_files(root, pkg)]
     requirements = root / "requirements.txt"
     if not requirements.is_file():
         raise FileNotFoundError(f"kit_root: expected requirements.txt in {root}, found none")

@@ -66,11 +66,11 @@ from core.manifest import NOTEBOOKS, QUESTIONS, Question
 from core.paths import KIT_ROOT
 from core.shipping import SANDBOX_PACKAGES
 
-from .gradescope import _package_files, data_files
+from .gradescope import data_files, package_files
 # Grading in the course is nbgrader_grade's; re-exported, as the course's own workflow (selftest) uses it.
-from .nbgrader_grade import (ASSIGNMENT, COURSE_ID, HIDDEN_PREFIX, _grade_cli, _grading_config, _nbgrader,
-                             _question_of_grade_id, add_grade_cli, autograded_scores, grade_course, gradebook,
-                             kit_scores, tools_path)
+from .nbgrader_grade import (ASSIGNMENT, COURSE_ID, HIDDEN_PREFIX, add_grade_cli, autograded_scores, grade_cli,
+                             grade_course, gradebook, grading_config_of, kit_scores, nbgrader_metadata,
+                             question_of_grade_id, tools_path)
 
 if TYPE_CHECKING:
     import nbformat
@@ -152,7 +152,7 @@ def add_hidden_checks(nb: nbformat.NotebookNode, stem: str) -> nbformat.Notebook
     owner = {f: q for q in QUESTIONS if q.notebook == stem and not q.by_hand for f in q.functions}
     last: dict[str, int] = {}
     for k, cell in enumerate(nb.cells):
-        meta = _nbgrader(cell)
+        meta = nbgrader_metadata(cell)
         grade_id = meta.get("grade_id", "")
         function = grade_id[len("check_"):] if grade_id.startswith("check_") else grade_id
         if function in owner:
@@ -268,7 +268,7 @@ def build_course(out: str | Path, *, kit_root: str | Path = KIT_ROOT, stems=None
     notebooks = {stem: add_hidden_checks(nb, stem) for stem, nb in _source_notebooks(root, stems).items()}
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hw4-course-") as tmp:
-        files = [(p.relative_to(root).as_posix(), p) for pkg in COURSE_PACKAGES for p in _package_files(root, pkg)]
+        files = [(p.relative_to(root).as_posix(), p) for pkg in COURSE_PACKAGES for p in package_files(root, pkg)]
         for name, path in files + data_files(root, Path(tmp)):
             dest = out / name
             dest.parent.mkdir(parents=True, exist_ok=True)
@@ -347,10 +347,11 @@ def submit_key(course: str | Path, student: str) -> Path:
     for path in sorted(release.glob("*.ipynb")):
         nb = nbformat.read(path, as_version=4)
         source = nbformat.read(course / "source" / ASSIGNMENT / path.name, as_version=4)
-        answers = {_nbgrader(c).get("grade_id"): c.source for c in source.cells if _nbgrader(c).get("solution")}
+        answers = {nbgrader_metadata(c).get("grade_id"): c.source for c in source.cells
+                   if nbgrader_metadata(c).get("solution")}
         for cell in nb.cells:
-            grade_id = _nbgrader(cell).get("grade_id")
-            if _nbgrader(cell).get("solution") and grade_id in answers:
+            grade_id = nbgrader_metadata(cell).get("grade_id")
+            if nbgrader_metadata(cell).get("solution") and grade_id in answers:
                 cell.source = _unmarked(answers[grade_id])
         nbformat.write(nb, folder / path.name)
     return folder
@@ -379,7 +380,7 @@ def _cli(args) -> int:
     course = build_course(args.out, stems=args.notebooks, force=args.force)
     print(f"wrote the nbgrader course {course}")
     if args.selftest:
-        score, total = selftest(course, config=_grading_config(args))
+        score, total = selftest(course, config=grading_config_of(args))
         print(f"self-test: the answer key scores {score:g} / {total:g} on the hidden checks (extra credit included)")
         return 0 if abs(score - total) < 1e-9 else 1
     print(f"next: cd {course} && nbgrader generate_assignment {ASSIGNMENT} --force  (see README.md)")

@@ -35,11 +35,11 @@ HIDDEN_PREFIX = "hidden_"
 # the hidden-check cells
 
 
-def _nbgrader(cell) -> dict:
+def nbgrader_metadata(cell) -> dict:
     return cell.get("metadata", {}).get("nbgrader", {})
 
 
-def _question_of_grade_id(grade_id: str) -> Question | None:
+def question_of_grade_id(grade_id: str) -> Question | None:
     if not grade_id.startswith(HIDDEN_PREFIX):
         return None
     wanted = grade_id[len(HIDDEN_PREFIX):]
@@ -108,7 +108,7 @@ def _write_feedback(course: Path, assignment: str, student: str, verdicts: dict,
         nb = nbformat.read(path, as_version=4)
         changed = False
         for cell in nb.cells:
-            q = _question_of_grade_id(_nbgrader(cell).get("grade_id", ""))
+            q = question_of_grade_id(nbgrader_metadata(cell).get("grade_id", ""))
             if q is not None and cell.cell_type == "code":
                 cell.outputs = cell_outputs(verdicts[q.id][1], figures.get(q.id))
                 changed = True
@@ -187,7 +187,7 @@ def grade_course(course: str | Path, *, assignment: str = ASSIGNMENT, students=N
                 submission = gb.find_submission(assignment, student)
                 for notebook in submission.notebooks:
                     for grade in notebook.grades:
-                        q = _question_of_grade_id(grade.name)
+                        q = question_of_grade_id(grade.name)
                         if q is None:
                             continue
                         score = verdicts[q.id][0]
@@ -263,7 +263,7 @@ def kit_scores(course: str | Path, student: str) -> dict[str, float]:
     credit included), for the questions of the course's notebooks."""
     out = {}
     for grade_id, (score, _) in autograded_scores(course, student).items():
-        q = _question_of_grade_id(grade_id)
+        q = question_of_grade_id(grade_id)
         if q is not None:
             out[q.id] = score
     return out
@@ -273,7 +273,7 @@ def kit_scores(course: str | Path, student: str) -> dict[str, float]:
 # command line
 
 
-def _grading_config(args):
+def grading_config_of(args):
     from .config import ENV_CONFIG, ENV_SECRET, load_config
 
     config = load_config(args.config)
@@ -283,8 +283,8 @@ def _grading_config(args):
     return config
 
 
-def _grade_cli(args) -> int:
-    config = _grading_config(args)
+def grade_cli(args) -> int:
+    config = grading_config_of(args)
 
     def report(student, result):
         why = f" (not graded: {result.failure})" if result.failure else ""
@@ -319,4 +319,4 @@ def add_grade_cli(subparsers) -> None:
     p.add_argument("--no-pictures", action="store_true",
                    help="feedback without the figures of each student's results on the public data "
                         "(they cost a few seconds per submission; scores do not change)")
-    p.set_defaults(func=_grade_cli)
+    p.set_defaults(func=grade_cli)

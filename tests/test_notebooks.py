@@ -52,7 +52,7 @@ def defs_in(nb) -> dict[str, ast.FunctionDef]:
 
 
 def reference_def(name: str) -> ast.FunctionDef:
-    path = nbk._find_module(name, KIT_ROOT / "solutions")
+    path = nbk.find_module(name, KIT_ROOT / "solutions")
     tree = ast.parse(path.read_text(encoding="utf-8"))
     return next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == name)
 
@@ -395,12 +395,12 @@ def test_parse_source_rejects(text, message):
 
 def test_solution_regions_per_variant():
     src = "def f(x):\n    y = 2\n    ### BEGIN SOLUTION\n    return x * y\n    ### END SOLUTION\n"
-    assert nbk._clear_regions(src, "key", "t")[0] == "def f(x):\n    y = 2\n    return x * y"
-    assert nbk._clear_regions(src, "student", "t")[0] == \
+    assert nbk.clear_regions(src, "key", "t")[0] == "def f(x):\n    y = 2\n    return x * y"
+    assert nbk.clear_regions(src, "student", "t")[0] == \
         "def f(x):\n    y = 2\n    # YOUR CODE HERE\n    raise NotImplementedError()"
-    assert nbk._clear_regions(src, "nbgrader", "t") == (src.rstrip("\n"), True)
+    assert nbk.clear_regions(src, "nbgrader", "t") == (src.rstrip("\n"), True)
     with pytest.raises(nbk.SourceError, match="never closed"):
-        nbk._clear_regions("### BEGIN SOLUTION\nx = 1\n", "key", "t")
+        nbk.clear_regions("### BEGIN SOLUTION\nx = 1\n", "key", "t")
 
 
 def _source_copy(tmp_path, stem, edit):

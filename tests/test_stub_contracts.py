@@ -65,7 +65,7 @@ ALLOWED_NUMBERS = {0.0, 1.0, 2.0, 3.0, -1.0, 4.0, 6.0, 8.0}
 
 
 def _reference(name: str) -> tuple[Path, ast.FunctionDef]:
-    path = nbk._find_module(name, KIT_ROOT / "solutions")
+    path = nbk.find_module(name, KIT_ROOT / "solutions")
     tree = ast.parse(path.read_text(encoding="utf-8"))
     return path, next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == name)
 
@@ -136,7 +136,7 @@ def student_stubs() -> dict[tuple[str, str], str]:
             nb = nbformat.read(nbk.output_path(q.notebook, variant), as_version=4)
             cells = [c.source for c in nb.cells if c.cell_type == "code"]
             if variant == "nbgrader":  # what nbgrader's release shows: each region becomes the stub
-                cells = [nbk._clear_regions(c, "student", q.notebook)[0] for c in cells]
+                cells = [nbk.clear_regions(c, "student", q.notebook)[0] for c in cells]
             for name, source in _stubs_of(cells).items():
                 if name in q.functions:
                     out[(f"{q.notebook} ({variant})", name)] = source
@@ -232,7 +232,7 @@ def eightpoint(pts1, pts2, M, *, refine=True):
     assert ext.contract.endswith('F : (3, 3)\n    """')
     assert ext.switches == ("refine = True",)
     assert "secret" in ext.header
-    nbgrader = nbk._solution_text(ext, "nbgrader", set())
+    nbgrader = nbk.solution_text(ext, "nbgrader", set())
     ns: dict = {}
     exec(nbgrader, ns)  # noqa: S102 - our own generated text
     assert ns["eightpoint"](1, 2, 3) is True

@@ -75,7 +75,7 @@ class _Calls:
              swap=None, kwargs=None):
         """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k], **kwargs)``, all
         within ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request;
-        ``swap``: what is switched off for this request only (``{"refineF": "off"}``, see the child's ``_refine_switch``)."""
+        ``swap``: what is switched off for this request only (``{"refineF": "off"}``, see the child's ``refine_switch_for``)."""
         inputs = [(tuple(a), dict(kwargs or {})) for a in inputs]
         budget = float(seconds) * len(inputs) * self.time_scale
         if self.cpu_clock:
@@ -139,9 +139,9 @@ class LocalStudent(_Calls):
 
     def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False, swap=None):
         fn = self.functions.get(function)
-        from autograder.sandbox.child import _refine_switch
+        from autograder.sandbox.child import refine_switch_for
 
-        with _refine_switch(fn, swap) as run:
+        with refine_switch_for(fn, swap) as run:
             return self._map(fn, function, inputs, args, figure, run)
 
     def _map(self, fn, function, inputs, args, figure, run=None):
@@ -150,7 +150,7 @@ class LocalStudent(_Calls):
         import numpy as np
 
         from autograder.sandbox import CallOutcome
-        from autograder.sandbox.child import _copy, _figures_points, _fignums
+        from autograder.sandbox.child import copy_arguments, figures_points, figure_numbers
         from core import wire
 
         if fn is None:
@@ -159,10 +159,10 @@ class LocalStudent(_Calls):
         for a, k in inputs:
             counted = run.calls if run is not None else 0
             try:
-                before = _fignums() if figure else set()
-                value = fn(*_copy(list(args), np), *_copy(list(a), np), **_copy(dict(k), np))
+                before = figure_numbers() if figure else set()
+                value = fn(*copy_arguments(list(args), np), *copy_arguments(list(a), np), **copy_arguments(dict(k), np))
                 if figure:
-                    value = _figures_points(value, before, np)
+                    value = figures_points(value, before, np)
                 o = CallOutcome("ok", wire.decode(json.loads(json.dumps(wire.encode_returned(value)))))
             except wire.Unsupported as exc:
                 o = CallOutcome("malformed", message=str(exc))

@@ -39,7 +39,7 @@ from core.paths import KIT_ROOT
 
 from core.untrusted import visible
 
-from .reader import _blank_magics, code_units
+from .reader import blank_magics, code_units
 
 __all__ = ["DEFAULT_LIBRARY_CALLS", "GIVEN_KIT", "KIT_INTERNAL", "KIT_PACKAGES", "LibraryCall", "find_in_class",
            "find_in_sources", "find_library_calls", "kit_internal", "library_names", "markdown_code"]
@@ -322,7 +322,7 @@ def find_in_sources(sources: Sequence[tuple[str, str]], names: dict[str, str] | 
     # import, the first part of a listed name ("cv2", "scipy") or an alias of one holds none: it
     # is not parsed (most of the cells of a class; a cell that does not parse is then a note only
     # when it could hold a use).
-    texts = [(origin, _blank_magics(text)) for origin, text in sources]
+    texts = [(origin, blank_magics(text)) for origin, text in sources]
     notes: list[str] = []
 
     def parse(chosen) -> list[tuple[str, str, ast.AST]]:

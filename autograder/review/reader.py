@@ -53,7 +53,7 @@ class SubmissionCode:
     notes: tuple[str, ...] = ()
 
 
-def _blank_magics(text: str) -> str:
+def blank_magics(text: str) -> str:
     return "\n".join("" if _MAGIC.match(line) else line for line in text.split("\n"))
 
 
@@ -62,7 +62,7 @@ def functions_in_source(text: str, origin: str, wanted=FUNCTIONS) -> list[Functi
 
     Raises SyntaxError when ``text`` does not parse even with its magics blanked.
     """
-    text = _blank_magics(text)
+    text = blank_magics(text)
     tree = ast.parse(text)
     lines = text.split("\n")
     found = []
@@ -172,5 +172,5 @@ def stub_sources(notebooks_dir: str | Path) -> list[FunctionSource]:
         if not p.is_file():
             continue
         for origin, src in _cells(p.read_bytes(), p.name):
-            out.append(FunctionSource("<cell>", _blank_magics(src), origin, 1))
+            out.append(FunctionSource("<cell>", blank_magics(src), origin, 1))
     return out

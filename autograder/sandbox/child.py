@@ -595,14 +595,14 @@ class _StudentModules:
                 flags |= getattr(__import__("__future__"), feature).compiler_flag
 
 
-def _copy(x, np):
+def copy_arguments(x, np):
     """Fresh copies, so that a function mutating its inputs cannot change the next input's."""
     if type(x) is np.ndarray:
         return x.copy()
     if type(x) in (list, tuple):
-        return type(x)(_copy(v, np) for v in x)
+        return type(x)(copy_arguments(v, np) for v in x)
     if type(x) is dict:
-        return {k: _copy(v, np) for k, v in x.items()}
+        return {k: copy_arguments(v, np) for k, v in x.items()}
     return x
 
 
@@ -632,7 +632,7 @@ def _drawn_points(figure, np):
     return np.concatenate(found) if found else np.zeros((0, 3))
 
 
-def _figures_points(value, before, np):
+def figures_points(value, before, np):
     """The 3D points shown by the returned object (a figure, or an object holding figures) and by
     every pyplot figure opened since ``before`` (a set of figure numbers)."""
     figures = [value]
@@ -651,7 +651,7 @@ def _figures_points(value, before, np):
     return drawn[:100000]
 
 
-def _fignums():
+def figure_numbers():
     plt = sys.modules.get("matplotlib.pyplot")
     try:
         return set(plt.get_fignums()) if plt is not None else set()
@@ -659,7 +659,7 @@ def _fignums():
         return set()
 
 
-def _refine_switch(fn, swap):
+def refine_switch_for(fn, swap):
     """The context of one call under a request's ``swap``: refineF switched off for ``fn`` with
     ``{"refineF": "off"}`` (``core.refine_switch.switched_off``), else nothing."""
     import contextlib
@@ -694,7 +694,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
     now = time.process_time if clock == "cpu" else time.monotonic
     over = f"used more than {seconds:g} s of CPU time" if clock == "cpu" else f"took more than {seconds:g} s"
     # Left in the finally below, after the timer is disarmed: no alarm may cut the putting back short.
-    switch = _refine_switch(fn, request.get("swap"))
+    switch = refine_switch_for(fn, request.get("swap"))
     run = switch.__enter__()  # refineF switched off: the Switch counting its calls; else None
     start = now()
     timed_out = exhausted = False
@@ -716,12 +716,12 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
             counted = _refine_calls(run)
             try:
                 try:
-                    args = list(_copy(shared, np)) + list(wire.decode(item.get("args", {"__tuple__": []})))
+                    args = list(copy_arguments(shared, np)) + list(wire.decode(item.get("args", {"__tuple__": []})))
                     kwargs = wire.decode(item.get("kwargs", {"__dict__": {}}))
-                    before = _fignums() if figure else set()
+                    before = figure_numbers() if figure else set()
                     value = fn(*args, **kwargs)
                     if figure:
-                        value = _figures_points(value, before, np)
+                        value = figures_points(value, before, np)
                     record.update(status="ok", value=wire.encode_returned(value))
                 except _Timeout:
                     timed_out = True

@@ -58,8 +58,8 @@ from .cells import (
     BEGIN,
     END,
     NBGRADER_STUB,
-    _clear_regions,
-    _solution_text,
+    clear_regions,
+    solution_text,
 )
 from .setup import PLACEHOLDER_REPO, Settings, load_settings, settings_of
 from .source import (
@@ -70,7 +70,7 @@ from .source import (
     Block,
     Extracted,
     SourceError,
-    _find_module,
+    find_module,
     extract_function,
     parse_source,
 )
@@ -103,7 +103,7 @@ __all__ = [
     "parse_source",
     "settings_of",
     "write_all",
-    "_clear_regions",
-    "_find_module",
-    "_solution_text",
+    "clear_regions",
+    "find_module",
+    "solution_text",
 ]

@@ -10,8 +10,8 @@ import nbformat
 from core.manifest import NOTEBOOKS, QUESTIONS, functions_of_notebook
 from core.notebook import METADATA_KEY
 
-from .cells import _State, _block_to_cells, _markdown, _share_points
-from .setup import Settings, _setup_text, load_settings
+from .cells import BuildState, block_to_cells, markdown_cell, share_points
+from .setup import Settings, setup_text, load_settings
 from .source import KIT_ROOT, SOLUTIONS_DIR, SRC_DIR, SourceError, parse_source
 
 VARIANTS = ("student", "key", "nbgrader")
@@ -47,13 +47,13 @@ def build_notebook(stem: str, variant: str, settings: Settings | None = None, *,
     path = src_dir / f"{stem}.md"
     if not path.exists():
         raise FileNotFoundError(f"stem: no source {path} for notebook {stem}")
-    st = _State(stem, variant, settings, Path(solutions_dir) if solutions_dir is not None else SOLUTIONS_DIR)
+    st = BuildState(stem, variant, settings, Path(solutions_dir) if solutions_dir is not None else SOLUTIONS_DIR)
     cells = []
     if variant == "key":
-        cells.append(_markdown("**Answer key: for the course staff only. Do not share it with students.**"))
+        cells.append(markdown_cell("**Answer key: for the course staff only. Do not share it with students.**"))
     for block in parse_source(path.read_text(encoding="utf-8"), path.name):
-        cells += _block_to_cells(block, st, f"{path.name}, line {block.line}")
-    _share_points(st, path.name)
+        cells += block_to_cells(block, st, f"{path.name}, line {block.line}")
+    share_points(st, path.name)
     expected = [q.id for q in QUESTIONS if q.notebook == stem]
     if st.seen_questions != expected:
         raise SourceError(f"{path.name}: expected the question headings {expected} in this order, "
@@ -86,7 +86,7 @@ def build_all(settings: Settings | None = None, *, root: Path | None = None, src
     built = {output_path(stem, variant, root): build_notebook(stem, variant, settings, src_dir=src_dir,
                                                                solutions_dir=solutions_dir)
              for variant in VARIANTS for stem in NOTEBOOKS}
-    hand_in = hand_in_notebook(_setup_text(settings or load_settings()))
+    hand_in = hand_in_notebook(setup_text(settings or load_settings()))
     for i, cell in enumerate(hand_in.cells):
         cell["id"] = f"hand-in-{i}"  # fixed, so that a rebuild is identical
     built[output_path(NOTEBOOKS[0], "student", root).parent / HAND_IN_NAME] = hand_in

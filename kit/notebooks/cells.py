@@ -14,8 +14,8 @@ from core.manifest import QUESTIONS, Question
 
 from handin.html import KIT_CELL_TAG, PAGE_START_TAG, PLUMBING_TAG
 
-from .setup import Settings, _colab_text, _setup_text
-from .source import _BARE_HEADING, Block, Extracted, SourceError, _heading_text, _referenced, extract_function
+from .setup import Settings, colab_text, setup_text
+from .source import BARE_HEADING, Block, Extracted, SourceError, heading_text, referenced_names, extract_function
 
 # Exactly what nbgrader's ClearSolutions writes, so its release of our nbgrader source and our
 # student notebooks hold the same code.
@@ -27,7 +27,7 @@ BEGIN, END = "### BEGIN SOLUTION", "### END SOLUTION"
 # ------------------------------------------------------------------- step 3: blocks -> cells
 
 
-def _markdown(text: str, **meta) -> nbformat.NotebookNode:
+def markdown_cell(text: str, **meta) -> nbformat.NotebookNode:
     return nbformat.v4.new_markdown_cell(text, metadata=meta or {})
 
 
@@ -35,7 +35,7 @@ def _code(text: str, **meta) -> nbformat.NotebookNode:
     return nbformat.v4.new_code_cell(text, metadata=meta or {})
 
 
-def _clear_regions(text: str, variant: str, where: str) -> tuple[str, bool]:
+def clear_regions(text: str, variant: str, where: str) -> tuple[str, bool]:
     """Apply nbgrader solution markers for one version; returns (text, had_markers)."""
     out, inside, found, indent = [], False, False, ""
     for line in text.splitlines():
@@ -63,13 +63,13 @@ def _clear_regions(text: str, variant: str, where: str) -> tuple[str, bool]:
     return "\n".join(out), found
 
 
-def _solution_text(ext: Extracted, variant: str, emitted_helpers: set[str]) -> str:
+def solution_text(ext: Extracted, variant: str, emitted_helpers: set[str]) -> str:
     if variant == "student":
         return ext.contract + "\n" + textwrap.indent(NBGRADER_STUB, "    ")
     if variant == "key":
         new = [(n, s) for n, s in ext.helpers if n not in emitted_helpers]
         emitted_helpers.update(n for n, _ in new)
-        names, dotted = _referenced([ast.parse(ext.source)] + [ast.parse(s) for _, s in new])
+        names, dotted = referenced_names([ast.parse(ext.source)] + [ast.parse(s) for _, s in new])
         imports = [stmt for stmt in ext.imports if _binds_used(stmt, names, dotted)]
         parts = ["\n".join(imports)] if imports else []
         parts += [s for _, s in new] + [ext.source]
@@ -113,7 +113,7 @@ def _nbgrader_meta(grade_id: str, *, solution: bool, grade: bool, locked: bool, 
 
 
 @dataclass
-class _State:
+class BuildState:
     """What the builder knows while it walks one notebook's blocks."""
 
     stem: str
@@ -146,11 +146,11 @@ def _bound_names(text: str, where: str) -> set[str]:
     return out
 
 
-def _markdown_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
-    m = _BARE_HEADING.match(block.text.splitlines()[0])
+def _markdown_block(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
+    m = BARE_HEADING.match(block.text.splitlines()[0])
     if not m:
         tags = [{"page": PAGE_START_TAG, "plumbing": PLUMBING_TAG}[a] for a in block.args]
-        return [_markdown(block.text, tags=tags)] if tags else [_markdown(block.text)]
+        return [markdown_cell(block.text, tags=tags)] if tags else [markdown_cell(block.text)]
     hashes, qid = m.groups()
     q = next((q for q in QUESTIONS if q.id == qid), None)
     if q is None or q.notebook != st.stem:
@@ -160,18 +160,18 @@ def _markdown_block(block: Block, st: _State, where: str) -> list[nbformat.Noteb
     st.question = q
     st.seen_questions.append(qid)
     rest = block.text.split("\n", 1)[1] if "\n" in block.text else ""
-    return [_markdown(_heading_text(q, hashes) + ("\n" + rest if rest else ""))]
+    return [markdown_cell(heading_text(q, hashes) + ("\n" + rest if rest else ""))]
 
 
-def _colab_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
-    return [_markdown(_colab_text(st.stem, st.settings), tags=[PLUMBING_TAG])]
+def _colab_block(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
+    return [markdown_cell(colab_text(st.stem, st.settings), tags=[PLUMBING_TAG])]
 
 
-def _setup_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+def _setup_block(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
     if st.code_cells:
         raise SourceError(f"{where}: the setup cell must be the first code cell")
     st.setup_seen = True
-    return [_code(_setup_text(st.settings), tags=[PLUMBING_TAG])]
+    return [_code(setup_text(st.settings), tags=[PLUMBING_TAG])]
 
 
 # The context manager the setup cell defines (kit/notebooks/setup.py): the kit's own cells run inside it.
@@ -212,8 +212,8 @@ def _contained(text: str, label: str, where: str) -> str:
     return out
 
 
-def _python_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
-    text, marked = _clear_regions(block.text, st.variant, where)
+def _python_block(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
+    text, marked = clear_regions(block.text, st.variant, where)
     st.defined |= _bound_names(block.text.replace(BEGIN, "").replace(END, ""), where)
     tags = list(block.args)
     if not marked:  # the kit's own cell: contained, and tagged so that the PDF shows no path or traceback of it
@@ -225,7 +225,7 @@ def _python_block(block: Block, st: _State, where: str) -> list[nbformat.Noteboo
     return [_code(text, **meta)]
 
 
-def _solution_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+def _solution_block(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
     (name,) = _one_arg(block, where)
     if st.question is None or name not in st.question.functions:
         raise SourceError(f"{where}: {name} is not a function of the question above it "
@@ -238,10 +238,10 @@ def _solution_block(block: Block, st: _State, where: str) -> list[nbformat.Noteb
     st.defined.add(name)
     st.solutions.append(name)
     meta = _nbgrader_meta(name, solution=True, grade=False, locked=False) if st.variant == "nbgrader" else {}
-    return [_code(_solution_text(ext, st.variant, st.emitted_helpers), **meta)]
+    return [_code(solution_text(ext, st.variant, st.emitted_helpers), **meta)]
 
 
-def _check_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+def _check_block(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
     (name,) = _one_arg(block, where)
     if name not in st.solutions:
         raise SourceError(f"{where}: check of {name} before (or without) its solution cell")
@@ -251,7 +251,7 @@ def _check_block(block: Block, st: _State, where: str) -> list[nbformat.Notebook
     return [cell]
 
 
-def _answer_block(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+def _answer_block(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
     qid, *opts = block.args or ("",)
     if st.question is None or qid != st.question.id:
         raise SourceError(f"{where}: answer for {qid!r} under the heading of "
@@ -259,9 +259,9 @@ def _answer_block(block: Block, st: _State, where: str) -> list[nbformat.Noteboo
     if opts == ["ungraded"]:
         # Read from the PDF only: nbgrader has no ungraded markdown answer, so its source
         # gets the placeholder too (a plain cell there would hand the answer out).
-        return [_markdown(block.text if st.variant == "key" else ANSWER_PLACEHOLDER)]
+        return [markdown_cell(block.text if st.variant == "key" else ANSWER_PLACEHOLDER)]
     points = _points_option(opts, where)
-    cell = _markdown(ANSWER_PLACEHOLDER if st.variant == "student" else block.text)
+    cell = markdown_cell(ANSWER_PLACEHOLDER if st.variant == "student" else block.text)
     st.graded.setdefault(qid, []).append((cell, f"answer_{qid.replace('.', '_')}", points, True))
     return [cell]
 
@@ -280,7 +280,7 @@ _BLOCKS = {
 _BEFORE_SETUP = ("markdown", "colab", "setup")
 
 
-def _block_to_cells(block: Block, st: _State, where: str) -> list[nbformat.NotebookNode]:
+def block_to_cells(block: Block, st: BuildState, where: str) -> list[nbformat.NotebookNode]:
     if block.kind not in _BLOCKS:
         raise SourceError(f"{where}: unknown block kind {block.kind!r} "
                           "(expected python, colab, setup, solution, check, answer)")
@@ -310,7 +310,7 @@ def _points_option(opts, where) -> int | None:
     return points
 
 
-def _share_points(st: _State, name: str) -> None:
+def share_points(st: BuildState, name: str) -> None:
     """Give every graded cell its points; the question's total must come out exactly."""
     for qid, items in st.graded.items():
         q = next(q for q in QUESTIONS if q.id == qid)

@@ -92,7 +92,7 @@ def settings_of(nb: nbformat.NotebookNode) -> Settings:
 # ---------------------------------------------------------------------- the setup cell
 
 
-def _setup_text(settings: Settings) -> str:
+def setup_text(settings: Settings) -> str:
     return f"""\
 # Setup: run this cell first.  It makes the homework kit (starter/, scenes/, data/) importable.
 # On your own machine it finds the kit around this notebook.  On Colab it mounts your Google Drive,
@@ -180,7 +180,7 @@ class kit_cell:
         return True"""
 
 
-def _colab_text(stem: str, settings: Settings) -> str:
+def colab_text(stem: str, settings: Settings) -> str:
     url = settings.colab_url(stem)
     if url is None:
         return (f"*Colab: this kit comes from {settings.repo_url}, which Colab cannot open; upload the "

@@ -17,7 +17,7 @@ from core.paths import KIT_ROOT
 SRC_DIR = KIT_ROOT / "notebooks" / "src"
 SOLUTIONS_DIR = KIT_ROOT / "solutions"
 
-_BARE_HEADING = re.compile(r"^(#{1,3})\s*(Q\d+(?:\.\d+)?)\s*$")
+BARE_HEADING = re.compile(r"^(#{1,3})\s*(Q\d+(?:\.\d+)?)\s*$")
 _FENCE = re.compile(r"^```(python|\{(\w+)\})[ \t]*(.*)$")
 
 
@@ -97,7 +97,7 @@ def parse_source(text: str, name: str = "<source>") -> list[Block]:
                                   f"{list(MARKDOWN_MARKS)}, got {line.strip()!r}")
             flush(lineno + 1)
             mark = words[0] if words else mark
-        elif not in_md_fence and _BARE_HEADING.match(line):
+        elif not in_md_fence and BARE_HEADING.match(line):
             flush(lineno)
             md.append(line)
         else:
@@ -110,7 +110,7 @@ def parse_source(text: str, name: str = "<source>") -> list[Block]:
     return blocks
 
 
-def _heading_text(q: Question, hashes: str) -> str:
+def heading_text(q: Question, hashes: str) -> str:
     points = f"{q.points} points" + (", extra credit" if q.extra_credit else "")
     return f"{hashes} {q.id} {q.title} [{points}]"
 
@@ -154,7 +154,7 @@ METHOD_SECTION = "Method (answer key only)"
 _ALL_FUNCTIONS = tuple(f for q in QUESTIONS for f in q.functions)
 
 
-def _referenced(nodes) -> tuple[set[str], set[str]]:
+def referenced_names(nodes) -> tuple[set[str], set[str]]:
     """Names loaded, and dotted prefixes of attribute chains ("scipy", "scipy.optimize"), in nodes."""
     names, dotted = set(), set()
     for node in nodes:
@@ -194,7 +194,7 @@ def _module_parts(path: Path):
     return text, defs, imports
 
 
-def _find_module(name: str, solutions_dir: Path) -> Path:
+def find_module(name: str, solutions_dir: Path) -> Path:
     hits = []
     for path in sorted(solutions_dir.glob("*.py")):
         if path.name == "__init__.py":
@@ -215,7 +215,7 @@ def extract_function(name: str, solutions_dir: Path | None = None) -> Extracted:
     or when it imports from a sibling module something that is not a homework function.
     """
     solutions_dir = Path(solutions_dir) if solutions_dir is not None else SOLUTIONS_DIR
-    path = _find_module(name, solutions_dir)
+    path = find_module(name, solutions_dir)
     text, defs, imports = _module_parts(path)
     fn = defs[name]
     if not (fn.body and isinstance(fn.body[0], ast.Expr) and isinstance(fn.body[0].value, ast.Constant)
@@ -227,7 +227,7 @@ def extract_function(name: str, solutions_dir: Path | None = None) -> Extracted:
     # Helpers are the module's other top-level definitions it reaches, directly or through others.
     needed, queue, needs = [], [fn], set()
     while queue:
-        names, _ = _referenced([queue.pop()])
+        names, _ = referenced_names([queue.pop()])
         for n in sorted(names):
             if n in _ALL_FUNCTIONS and n != name:
                 needs.add(n)
@@ -236,7 +236,7 @@ def extract_function(name: str, solutions_dir: Path | None = None) -> Extracted:
                 queue.append(defs[n])
     order = list(defs)
     helpers = [h for h in order if h in needed]
-    names, dotted = _referenced([fn] + [defs[h] for h in helpers])
+    names, dotted = referenced_names([fn] + [defs[h] for h in helpers])
     kept = []
     for node in imports:
         if isinstance(node, ast.ImportFrom) and node.module == "__future__":

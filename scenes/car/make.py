@@ -18,11 +18,11 @@ from .model import (
     car_parts,
     car_rotation,
 )
-from .observe import _keypoint_normals, _observe
+from .observe import keypoint_normals, observe_keypoints
 from .render import render_view
-from .scene import CarScene, _readonly
-from .street import _street
-from .trajectory import _fit_cameras, _jitter, _trajectory
+from .scene import CarScene, readonly
+from .street import street_layers
+from .trajectory import fit_cameras, jitter_camera, trajectory_of
 
 
 def make_car_scene(seed: int = 0, *, n_times: int = 10, width: int = 1920, height: int = 1080,
@@ -63,20 +63,20 @@ def make_car_scene(seed: int = 0, *, n_times: int = 10, width: int = 1920, heigh
     model = CarModel(color=CAR_COLORS[rng_layout.integers(len(CAR_COLORS))])
     parts = car_parts(model)
     kps = car_keypoints(model)
-    kp_normals = _keypoint_normals(parts, kps)
-    positions, headings = _trajectory(rng_layout, n_times)
+    kp_normals = keypoint_normals(parts, kps)
+    positions, headings = trajectory_of(rng_layout, n_times)
     rotations = [car_rotation(h) for h in headings]
     P_true = np.stack([p + kps @ R.T for p, R in zip(positions, rotations)])
     # every vertex of the body and cabin must be in view, not just the keypoints
     hull = np.concatenate([np.concatenate(part.faces) for part in parts[:2]])
     extent = np.concatenate([p + hull @ R.T for p, R in zip(positions, rotations)] + list(P_true))
-    K0, M0 = _fit_cameras(rng_layout, positions, extent, width, height)
+    K0, M0 = fit_cameras(rng_layout, positions, extent, width, height)
 
     K = np.zeros((n_times, N_CAMERAS, 3, 3))
     M = np.zeros((n_times, N_CAMERAS, 3, 4))
     for t in range(n_times):
         for c in range(N_CAMERAS):
-            K[t, c], M[t, c] = _jitter(rng_layout, K0[c], M0[c], width)
+            K[t, c], M[t, c] = jitter_camera(rng_layout, K0[c], M0[c], width)
 
     uv_true = np.zeros((n_times, N_CAMERAS, N_KEYPOINTS, 2))
     occluded = np.zeros((n_times, N_CAMERAS, N_KEYPOINTS), bool)
@@ -84,17 +84,17 @@ def make_car_scene(seed: int = 0, *, n_times: int = 10, width: int = 1920, heigh
     for t in range(n_times):
         C = [projection(K[t, c], M[t, c]) for c in range(N_CAMERAS)]
         centres = [camera_center(M[t, c]) for c in range(N_CAMERAS)]
-        uv_true[t], occluded[t], pts[t] = _observe(rng_obs, parts, kp_normals, kps, rotations[t], positions[t],
+        uv_true[t], occluded[t], pts[t] = observe_keypoints(rng_obs, parts, kp_normals, kps, rotations[t], positions[t],
                                                    centres, C, width, height, sigma_best, sigma_worst)
 
     scene = CarScene(
-        images=None, K=_readonly(K), M=_readonly(M), pts=_readonly(pts), P_true=_readonly(P_true),
-        uv_true=_readonly(uv_true), occluded=_readonly(occluded), car_position=_readonly(positions),
-        car_heading=_readonly(headings), model=model, width=int(width), height=int(height), seed=int(seed),
-        street=_street(rng_street),
+        images=None, K=readonly(K), M=readonly(M), pts=readonly(pts), P_true=readonly(P_true),
+        uv_true=readonly(uv_true), occluded=readonly(occluded), car_position=readonly(positions),
+        car_heading=readonly(headings), model=model, width=int(width), height=int(height), seed=int(seed),
+        street=street_layers(rng_street),
     )
     if render:
-        images = tuple(tuple(_readonly(render_view(scene, t, c, supersample=supersample)) for t in range(n_times))
+        images = tuple(tuple(readonly(render_view(scene, t, c, supersample=supersample)) for t in range(n_times))
                        for c in range(N_CAMERAS))
         scene = replace(scene, images=images)
     return scene

@@ -51,7 +51,7 @@ class CarModel:
 
 
 @dataclass(frozen=True, eq=False)
-class _Part:
+class Part:
     """A convex solid of the car: faces (car frame) with outward normals, and its half-spaces."""
 
     name: str
@@ -61,12 +61,12 @@ class _Part:
     offsets: np.ndarray  # (F,): the solid is {p : normals @ p <= offsets}
 
 
-def _part(name, faces, color) -> _Part:
+def _part(name, faces, color) -> Part:
     centre = np.mean(np.concatenate(faces), axis=0)
     faces = tuple(orient_outward(f, centre) for f in faces)
     normals = np.array([face_normal(f) for f in faces])
     offsets = np.array([n @ f[0] for n, f in zip(normals, faces)])
-    return _Part(name, faces, color, normals, offsets)
+    return Part(name, faces, color, normals, offsets)
 
 
 def _prism(profile: np.ndarray, half_width: float) -> list[np.ndarray]:
@@ -97,7 +97,7 @@ def _wheel_faces(m: CarModel, axle: float, side: int, n: int = 12) -> list[np.nd
 
 
 @lru_cache(maxsize=16)
-def car_parts(m: CarModel = CarModel()) -> tuple[_Part, ...]:
+def car_parts(m: CarModel = CarModel()) -> tuple[Part, ...]:
     """The convex solids of the car in the car frame: body, cabin and four wheels.
 
     Wheels are named ``wheel front-left`` etc. like their keypoints; faces of a wheel are
@@ -126,7 +126,7 @@ def car_parts(m: CarModel = CarModel()) -> tuple[_Part, ...]:
     return tuple(parts)
 
 
-def _lamp(m: CarModel, front: bool, side: int) -> np.ndarray:
+def lamp_points(m: CarModel, front: bool, side: int) -> np.ndarray:
     """Corners (4, 3) of a lamp on the front or rear face of the body, car frame."""
     L2 = m.length / 2
     f = L2 if front else -L2
@@ -141,8 +141,8 @@ def car_keypoints(m: CarModel = CarModel()) -> np.ndarray:
     out = m.width / 2 + m.wheel_protrusion
     wheels = [[m.axles[0], out, m.wheel_radius], [m.axles[0], -out, m.wheel_radius],
               [m.axles[1], out, m.wheel_radius], [m.axles[1], -out, m.wheel_radius]]
-    lamps = [_lamp(m, True, 1).mean(0), _lamp(m, True, -1).mean(0),
-             _lamp(m, False, 1).mean(0), _lamp(m, False, -1).mean(0)]
+    lamps = [lamp_points(m, True, 1).mean(0), lamp_points(m, True, -1).mean(0),
+             lamp_points(m, False, 1).mean(0), lamp_points(m, False, -1).mean(0)]
     rt, ft, wt = m.cabin_top
     roof = [[ft, wt, m.roof_height], [ft, -wt, m.roof_height], [rt, wt, m.roof_height], [rt, -wt, m.roof_height]]
     return np.array(wheels + [list(p) for p in lamps] + roof, dtype=float)

@@ -7,13 +7,13 @@ import numpy as np
 
 from core.geometry import project
 
-from .model import N_KEYPOINTS, _Part
+from .model import N_KEYPOINTS, Part
 
 # --------------------------------------------------------------------------------------------
 # Visibility and the observation model
 # --------------------------------------------------------------------------------------------
 
-def _segment_hits(part: _Part, a: np.ndarray, b: np.ndarray, stop: float) -> bool:
+def _segment_hits(part: Part, a: np.ndarray, b: np.ndarray, stop: float) -> bool:
     """Does the segment a -> b (car frame), up to ``stop`` metres before b, cross the part's interior?"""
     d = b - a
     length = np.linalg.norm(d)
@@ -35,7 +35,7 @@ def _segment_hits(part: _Part, a: np.ndarray, b: np.ndarray, stop: float) -> boo
     return True
 
 
-def _keypoint_normals(parts, kps: np.ndarray) -> list[np.ndarray]:
+def keypoint_normals(parts, kps: np.ndarray) -> list[np.ndarray]:
     """For each keypoint (car frame), the outward normals (n, 3) of the faces it lies on."""
     out = []
     for p in kps:
@@ -70,7 +70,7 @@ def confidence_sigma(confidence, sigma_best: float = 0.5, sigma_worst: float = 1
     return sigma_best * (sigma_worst / sigma_best) ** frac
 
 
-def _observe(rng, parts, kp_normals, kps_car, R_car, pos, centres, C, width, height,
+def observe_keypoints(rng, parts, kp_normals, kps_car, R_car, pos, centres, C, width, height,
              sigma_best, sigma_worst):
     """Projections, occlusion flags and noisy observations of one time step.
 

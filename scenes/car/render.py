@@ -7,7 +7,7 @@ import numpy as np
 from core.geometry import camera_center
 from scenes.painter import Face, Layer, face_normal, orient_outward, render
 
-from .model import N_CAMERAS, _lamp, car_parts, car_rotation
+from .model import N_CAMERAS, lamp_points, car_parts, car_rotation
 from .scene import CarScene
 
 # --------------------------------------------------------------------------------------------
@@ -53,13 +53,13 @@ def _car_solids(scene: CarScene, t: int, centre: np.ndarray) -> list[list[Face]]
         n = face_normal(f)
         decals = []
         if n[0] > 0.99:  # front: headlights and a grille
-            decals = [Face(world(orient_outward(_lamp(m, True, s), [0, 0, 0.6])), (245, 240, 215), shade=False)
+            decals = [Face(world(orient_outward(lamp_points(m, True, s), [0, 0, 0.6])), (245, 240, 215), shade=False)
                       for s in (1, -1)]
             front = f[0, 0]
             grille = np.array([[front, -0.42, 0.38], [front, 0.42, 0.38], [front, 0.42, 0.48], [front, -0.42, 0.48]])
             decals.append(Face(world(orient_outward(grille, [0, 0, 0.6])), (40, 40, 42)))
         elif n[0] < -0.99:
-            decals = [Face(world(orient_outward(_lamp(m, False, s), [0, 0, 0.6])), (200, 25, 30), shade=False)
+            decals = [Face(world(orient_outward(lamp_points(m, False, s), [0, 0, 0.6])), (200, 25, 30), shade=False)
                       for s in (1, -1)]
         body_faces.append(Face(world(f), m.color, decals=tuple(decals)))
 

@@ -17,7 +17,7 @@ def _ground_rect(x0, x1, z0, z1, color) -> Face:
     return Face(orient_outward(v, [0.0, 1.0, 0.0]), color, cull=False, shade=False)
 
 
-def _street(rng) -> tuple[Layer, Layer]:
+def street_layers(rng) -> tuple[Layer, Layer]:
     """The ground paint (one unsorted layer) and the buildings (one depth-sorted layer)."""
     far = 3000.0
     r, s = ROAD_HALF_WIDTH, SIDEWALK_OUTER

@@ -13,7 +13,7 @@ from .model import N_CAMERAS, ROAD_HALF_WIDTH
 # Trajectory and cameras
 # --------------------------------------------------------------------------------------------
 
-def _trajectory(rng, n_times: int):
+def trajectory_of(rng, n_times: int):
     """Car positions (T, 3) and headings (T,) driving straight-ish through the intersection.
 
     The road direction is one of the four, the car keeps to the right-hand lane, moves 0.8 to
@@ -32,7 +32,7 @@ def _trajectory(rng, n_times: int):
     return start + steps, headings
 
 
-def _fit_cameras(rng, targets_world: np.ndarray, extent_world: np.ndarray, width: int, height: int):
+def fit_cameras(rng, targets_world: np.ndarray, extent_world: np.ndarray, width: int, height: int):
     """Base intrinsics (3, 3, 3) and extrinsics (3, 3, 4) of three cameras at street corners.
 
     Three of the four corners are drawn; each camera starts 8.5 to 10.5 m from both road axes,
@@ -73,7 +73,7 @@ def _fit_cameras(rng, targets_world: np.ndarray, extent_world: np.ndarray, width
     return np.array(Ks), np.array(Ms)
 
 
-def _jitter(rng, K: np.ndarray, M: np.ndarray, width: int):
+def jitter_camera(rng, K: np.ndarray, M: np.ndarray, width: int):
     """A slightly different K (3, 3) and M (3, 4) for one time step (hand-held camera, re-estimated K)."""
     scale = width / 1920.0
     Kt = K.copy()
