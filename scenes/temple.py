@@ -244,7 +244,7 @@ def temple_model() -> list:
 _POSE = dict(turn_deg=45.0, tilt_deg=-6.0, pivot_offset=-0.13, roll_deg=-1.8, toe_deg=0.04)
 
 
-def _poses(rng, jitter: float, baseline_deg: float, distance: float):
+def _poses(rng, jitter: float, baseline_deg: float, distance: float, toe_deg: float = _POSE["toe_deg"]):
     """Object placement (R_obj (3, 3), t_obj (3,)) in camera-1 coordinates, and camera 2's
     M2 (3x4).  ``jitter`` scales the seeded perturbations: a few degrees of the temple's
     turn and tilt, about 1 % of its position, 8 % of the swing angle, 2 degrees of the swing
@@ -274,7 +274,7 @@ def _poses(rng, jitter: float, baseline_deg: float, distance: float):
     # own y axis tilts its axis out of that plane: |E33|/|E| is about toe (radians) / sqrt(2).  The
     # seeded part scales the size (tanh keeps it within 0.5 to 1.5 times nominal, so it never
     # crosses zero) and picks the sign.
-    toe = _POSE["toe_deg"] * (1.0 + 0.5 * np.tanh(n[10])) * (-1.0 if n[11] < 0 else 1.0)
+    toe = toe_deg * (1.0 + 0.5 * np.tanh(n[10])) * (-1.0 if n[11] < 0 else 1.0)
     R2 = rotation_about([0, 1, 0], np.deg2rad(toe)) @ roll @ Q.T
     c2 = pivot - Q @ pivot
     M2 = np.hstack([R2, (-R2 @ c2)[:, None]])
@@ -388,7 +388,7 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
                       baseline_deg: float = 11.0, focal: float | None = None, jitter: float = 1.0,
                       epipolar_outliers: float = 0.5, image_noise: float = 1.2,
                       exposure2: float = 0.96, supersample: int = 2,
-                      coords_margin: int = BORDER_MARGIN) -> TempleScene:
+                      coords_margin: int = BORDER_MARGIN, toe_deg: float | None = None) -> TempleScene:
     """Render a two-view temple scene and pick its correspondences, with ground truth.
 
     The defaults give data like the official set: 640x480 images, focal length about 1520 px,
@@ -435,6 +435,11 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
         Pixels every templeCoords point and its true match in view 2 keep from every border
         (default scenes.envelope.BORDER_MARGIN: a 101 px window fits without padding); at
         least 10.  Smaller images than the envelope's need a smaller value.
+    toe_deg : float, optional
+        Nominal pan (degrees) of camera 2 about its own y axis (None: 0.04, the official pair's
+        E33).  It shifts image 2 sideways by about focal * toe, which parts the epipolar line
+        F x1 from its transpose's F^T x1 by twice that at the match (a matcher searching the
+        wrong one then misses); seeded between half and 1.5 times it, of either sign.
 
     Returns
     -------
@@ -448,6 +453,7 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
     n_coords = _check_int(n_coords, "n_coords", 1)
     noise_px = _check_range(noise_px, "noise_px", 0.0, 5.0)
     baseline_deg = _check_range(baseline_deg, "baseline_deg", 0.5, 30.0)
+    toe_deg = _POSE["toe_deg"] if toe_deg is None else _check_range(toe_deg, "toe_deg", 0.01, 1.0)
     jitter = _check_range(jitter, "jitter", 0.0, 3.0)
     epipolar_outliers = _check_range(epipolar_outliers, "epipolar_outliers", 0.0, 1.0)
     image_noise = _check_range(image_noise, "image_noise", 0.0, 50.0)
@@ -464,7 +470,7 @@ def make_temple_scene(seed: int = 0, *, width: int = 640, height: int = 480, n_c
     # A seeded pose whose E or F has a last entry near zero (scenes.envelope) is drawn again from
     # the same stream: a student's E / E[2, 2] or F / F[2, 2] must stay well conditioned.
     for _ in range(_POSE_TRIES):
-        R_obj, t_obj, M2 = _poses(geo_rng, jitter, baseline_deg, _DISTANCE)
+        R_obj, t_obj, M2 = _poses(geo_rng, jitter, baseline_deg, _DISTANCE, toe_deg)
         outside = pair_outside_envelope(K, K, M2, slack=POSE_SLACK)
         if not outside:
             break

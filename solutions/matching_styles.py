@@ -30,8 +30,9 @@ from scipy import fft as sp_fft
 
 from core.validate import as_matrix, as_points
 
-__all__ = ["DISTINCT_RATIO", "DISTINCT_WINDOWS", "STYLES", "EasyProblem", "Style", "easy_points", "easy_problem",
-           "match_styles", "prepare_images", "scene_problem", "surface_tolerance"]
+__all__ = ["BOX", "DISTINCT_RATIO", "DISTINCT_WINDOWS", "STYLES", "EasyProblem", "Style", "easy_points", "easy_problem",
+           "NEAR", "along_line", "match_styles", "off_transposed_line", "prepare_images", "scene_problem",
+           "surface_tolerance"]
 
 _PAD = 50   # the largest half window (101 px)
 _GATHER_MAX = 31   # larger windows are compared by FFT
@@ -70,12 +71,12 @@ class Style:
 # The styles the goal is set from: the handout's similarity measures, small to very large
 # windows, local and whole-line search.
 STYLES = (
-    Style("ssd", 5, search=20),
+    Style("ssd", 5, search=25),
     Style("ssd", 11),
     Style("sad", 9, search=30),
     Style("ncc", 21),
     Style("ssd", 31, sigma=5.0, search=40),
-    Style("ssd", 101, search=25),
+    Style("ssd", 101, sigma=5.0, search=25),
 )
 
 # A point is easy when, at each of these window sizes, every candidate of the true line more
@@ -321,13 +322,45 @@ def easy_problem(im1, im2, F, pts1, truth2, truth3d, C1, C2, tol: float, count: 
 
 # Points are chosen this far from the border in both images, so that a 101-px window fits.
 MARGIN = 50
+# A matcher that never leaves rows y1 +- BOX (a tutorial's search box) reaches only matches this
+# close to (x1, y1) along its line; NEAR: the nearest search of the goal styles.
+BOX = 10
+NEAR = min(s.search for s in STYLES if s.search is not None)
+# One pixel beyond the tolerance: the slips' candidates are rounded to whole pixels.
+_ROUNDING = 1.0
 
 
-def scene_problem(scene, count: int, rng: np.random.Generator | None = None) -> tuple[np.ndarray, EasyProblem]:
+def along_line(F, pts1, pts2) -> np.ndarray:
+    """(P,) how far pts2 (P, 2) lies from pts1 (P, 2) along the main direction (x or y) of each
+    point's epipolar line F x1, as a matcher steps its candidates (one per row or per column)."""
+    lines = np.column_stack([pts1, np.ones(len(pts1))]) @ np.asarray(F, float).T
+    steps_rows = np.abs(lines[:, 0]) >= np.abs(lines[:, 1])
+    d = np.abs(np.asarray(pts2, float) - pts1)
+    return np.where(steps_rows, d[:, 1], d[:, 0])
+
+
+def off_transposed_line(F, pts1, pts2) -> np.ndarray:
+    """(P,) the distance (px) of pts2 (P, 2) from the line F^T x1 of each point pts1 (P, 2): the
+    line a matcher that mixes up F and its transpose searches."""
+    lines = np.column_stack([pts1, np.ones(len(pts1))]) @ np.asarray(F, float)
+    return np.abs(np.sum(lines[:, :2] * pts2, axis=1) + lines[:, 2]) / np.hypot(lines[:, 0], lines[:, 1])
+
+
+def scene_problem(scene, count: int, rng: np.random.Generator | None = None, *,
+                  slips: bool = False) -> tuple[np.ndarray, EasyProblem]:
     """(rows, problem): the easy points of a scenes.temple.TempleScene among its templeCoords rows
     whose true match is known (unoccluded in image 2), MARGIN px inside both images and more than
     2 * tol px from the point itself (so that returning (x1, y1) cannot pass); ``rows`` (P,) index
-    scene.x1 / x2_true / X_coords.  tol is judging.correspondence.tolerance(scene.width)."""
+    scene.x1 / x2_true / X_coords.  tol is judging.correspondence.tolerance(scene.width).
+
+    slips : also keep only the points that tell a search along the epipolar line from two slips
+        (Q4.1's points): the match lies more than BOX + tol (+ rounding) px from (x1, y1) along
+        the line, so that no candidate of a +-BOX px box is within tol of it, and at most NEAR,
+        so that every goal style reaches it; and more than tol (+ rounding) px off the line
+        F^T x1, so that no candidate of the transposed line is within tol of it.  Not for the 3D
+        structure (Q4.2): a band of disparities is a band of depths, nearly flat.
+    When fewer than 8 rows qualify, the visible points are judged (a degenerate scene).
+    """
     from judging.correspondence import tolerance
 
     W, H = scene.width, scene.height
@@ -338,7 +371,12 @@ def scene_problem(scene, count: int, rng: np.random.Generator | None = None) -> 
     def inside(p, margin):
         return np.all((p >= margin) & (p <= [W - 1 - margin, H - 1 - margin]), axis=1)
 
-    pool = np.flatnonzero(scene.visible2 & inside(p1, MARGIN) & inside(scene.x2_true, MARGIN) & (disparity > 2 * tol))
+    keep = scene.visible2 & inside(p1, MARGIN) & inside(scene.x2_true, MARGIN) & (disparity > 2 * tol)
+    if slips:
+        along = along_line(scene.F_true, p1, scene.x2_true)
+        keep &= (along > BOX + tol + _ROUNDING) & (along <= NEAR)
+        keep &= off_transposed_line(scene.F_true, p1, scene.x2_true) > tol + _ROUNDING
+    pool = np.flatnonzero(keep)
     if len(pool) < 8:  # a degenerate scene would make the check meaningless
         pool = np.flatnonzero(scene.visible2 & inside(p1, 8))
     problem = easy_problem(scene.im1, scene.im2, scene.F_true, p1[pool], scene.x2_true[pool], scene.X_coords[pool],

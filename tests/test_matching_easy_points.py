@@ -1,10 +1,13 @@
-"""Q4.1 judged on the easy points, Q4.2 on the 3D structure (issue 16).
+"""Q4.1 judged on the easy points, Q4.2 on the 3D structure (issues 16 and 29).
 
 Matchers written the ways hand-ins write them (not the kit's reference) must get full Q4.1 and
 Q4.2 marks on hidden draws of several secrets and on the public self-check; wrong matchers must
-still lose Q4.1; a 2022-2024 compute3D_pts returning (M2, C2, P), or writing to result/, is judged
-by its structure.  The public self-check's goals are a committed file: it must equal a fresh
-computation.
+still lose Q4.1, and a matcher that searches the line F^T x1, or that never leaves rows y1 +- 10,
+at least half of it (the hidden matching temples and their points are chosen so that they can
+tell: autograder.hidden.cases.correspondence, solutions.matching_styles.scene_problem); a
+2022-2024 compute3D_pts returning (M2, C2, P), or writing to result/, is judged by its structure.
+The public self-check's goals are a committed file: it must equal a fresh computation.
+``benchmarks/matching_discrimination.py`` gives the same verdicts under the sweep's 20 secrets.
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ from autograder.hidden.inputs import build_hidden_inputs
 from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import LocalStudent, run_here
 from judging import correspondence as jc
+
+import realstyles.snippets
 
 SECRETS = ("easy-points-a", "easy-points-b")
 
@@ -31,9 +36,12 @@ def _line_rows(F, x1, y1, H):
 
 
 def ssd101_no_padding(im1, im2, F, x1, y1):
-    """101-px window, no padding: candidates whose window leaves the image are skipped."""
+    """101-px window, Gaussian-weighted (the handout's hint), no padding: candidates whose window
+    leaves the image are skipped."""
     h = 50
     H, W = im1.shape[:2]
+    g = np.exp(-np.arange(-h, h + 1) ** 2 / (2 * 5.0 ** 2))
+    g = np.outer(g, g)[:, :, None] if im1.ndim == 3 else np.outer(g, g)
     ref = im1[y1 - h:y1 + h + 1, x1 - h:x1 + h + 1]
     xs, ys = _line_rows(F, x1, y1, H)
     best, out = np.inf, (x1, y1)
@@ -41,7 +49,7 @@ def ssd101_no_padding(im1, im2, F, x1, y1):
         xi = int(round(x))
         if abs(y - y1) > 30 or not (h <= xi < W - h and h <= y < H - h):
             continue
-        d = np.sum((im2[y - h:y + h + 1, xi - h:xi + h + 1] - ref) ** 2)
+        d = np.sum(g * (im2[y - h:y + h + 1, xi - h:xi + h + 1] - ref) ** 2)
         if d < best:
             best, out = d, (xi, int(y))
     return out
@@ -94,7 +102,7 @@ def sad9_whole_line_no_cast(im1, im2, F, x1, y1):
     return out
 
 
-STYLES = {"101 px without padding": ssd101_no_padding, "5-px SSD, int coordinates": ssd5_local_int,
+STYLES = {"101 px Gaussian-weighted, without padding": ssd101_no_padding, "5-px SSD, int coordinates": ssd5_local_int,
           "Gaussian, whole line, floats cast to int": gaussian_whole_line_float_cast,
           "SAD, whole line, no cast": sad9_whole_line_no_cast}
 
@@ -117,7 +125,16 @@ def searches_its_row(im1, im2, F, x1, y1):
     return 3 + int(np.argmin(d)), y1
 
 
+def _snippet(source):
+    namespace = {"np": np}
+    exec(source, namespace)  # noqa: S102 - the real-styles corpus's own source
+    return namespace["epipolarCorrespondence"]
+
+
 WRONG = {"returns (x1, y1)": returns_the_point, "x and y swapped": swaps_x_and_y, "searches its row": searches_its_row}
+# The slips whose partial credit kept most of Q4.1 (issue 29): must keep at most half of it.
+HALF = {"searches F^T x1": _snippet(realstyles.snippets.EC_WRONG_LINE),
+        "rows y1 +- 10 only": _snippet(realstyles.snippets.EC_SMALL_BOX)}
 
 
 def _compute3D_with(matcher):
@@ -139,14 +156,14 @@ def hidden(request):
     return build_hidden_inputs(quick_config(secret=request.param), keep=default_keep())  # the suite's keep
 
 
-def _questions(hidden, **replaced) -> dict:
+def _questions(hidden, args=(), **replaced) -> dict:
     import solutions
 
     funcs = {name: getattr(solutions, name) for name in solutions.__all__}
     funcs.update(replaced)
     from autograder.hidden.plugin import HIDDEN_DIR
 
-    result = run_here(LocalStudent(funcs), hidden, tests=(HIDDEN_DIR / "test_correspondence.py",))
+    result = run_here(LocalStudent(funcs), hidden, tests=(HIDDEN_DIR / "test_correspondence.py",), args=args)
     return {q.id: q for q in result.questions}
 
 
@@ -160,31 +177,31 @@ def test_the_committed_public_goals_are_a_fresh_computation():
 
 
 def test_easy_points_are_distinctive_and_the_goal_comes_from_several_styles(hidden):
-    from solutions.matching_styles import STYLES as REF_STYLES
+    from solutions.matching_styles import BOX, NEAR, STYLES as REF_STYLES, along_line, off_transposed_line
 
-    for case in hidden.prepared["correspondence"].cases:
+    correspondence = hidden.prepared["correspondence"]
+    for case in (*correspondence.cases, correspondence.points_case):
         assert len(case.pts1) >= 8
         assert len(case.shares) == len(REF_STYLES) >= 4
         assert case.ref_share == min(s[1] for s in case.shares) > 0
         disparity = np.linalg.norm(case.truth2 - case.pts1, axis=1)
         assert np.all(disparity > 2 * case.tol)   # returning (x1, y1) can never be right
-
-
-# A plain 101-px window on these images sees the whole object's shift more than each point's: its
-# matches are right as often as the weakest style's (Q4.1 in full), but its temple is hardly better
-# than a flat one (near half of the points, where a flat temple puts 47-79 %), so the structure is
-# not evident and Q4.2 gives partial credit.
-FLAT_LIKE = {"101 px without padding"}
+    for case in correspondence.cases:
+        # Q4.1's points: every goal style reaches their match, and it is out of reach of a box of
+        # +-BOX rows and off the transposed line F^T x1 (neither slip can be right there)...
+        along = along_line(case.F, case.pts1, case.truth2)
+        assert np.all((along > BOX + case.tol) & (along <= NEAR)), along
+        assert np.all(off_transposed_line(case.F, case.pts1, case.truth2) > case.tol)
+        # ... and the correct styles do well there, so the goal is high
+        assert case.ref_share >= 0.8, case.shares
 
 
 @pytest.mark.parametrize("style", sorted(STYLES))
 def test_correct_matcher_styles_get_full_Q41_and_Q42(hidden, style):
     matcher = STYLES[style]
     q = _questions(hidden, epipolarCorrespondence=matcher, compute3D_pts=_compute3D_with(matcher))
-    for qid in ("Q4.1",) if style in FLAT_LIKE else ("Q4.1", "Q4.2"):
+    for qid in ("Q4.1", "Q4.2"):
         assert q[qid].score == q[qid].max_score, (qid, [t.feedback for t in q[qid].tests])
-    if style in FLAT_LIKE:
-        assert 0 < q["Q4.2"].score, [t.feedback for t in q["Q4.2"].tests]
     # judged on the easy points, against the weakest of several styles, and said so
     assert all("easy points" in t.feedback and "correct matcher styles" in t.feedback for t in q["Q4.1"].tests)
 
@@ -198,10 +215,14 @@ def test_a_flat_temple_loses_Q42(hidden):
     assert any("a flat temple puts" in t.feedback for t in q42.tests), [t.feedback for t in q42.tests]
 
 
-@pytest.mark.parametrize("wrong", sorted(WRONG))
+@pytest.mark.parametrize("wrong", sorted(WRONG) + sorted(HALF))
 def test_wrong_matchers_lose_Q41(hidden, wrong):
-    q41 = _questions(hidden, epipolarCorrespondence=WRONG[wrong])["Q4.1"]
+    """Every wrong matcher keeps less than half of Q4.1; the two slips that kept most of it (the
+    line F^T x1, a +-10 px box) keep at most a fifth on each scene (their matches are never right)."""
+    q41 = _questions(hidden, ("-k", "test_matches"), epipolarCorrespondence={**WRONG, **HALF}[wrong])["Q4.1"]
     assert q41.score < 0.5 * q41.max_score, [t.feedback for t in q41.tests]
+    if wrong in HALF:
+        assert all(t.score <= 0.2 * t.max_score for t in q41.tests), [t.feedback for t in q41.tests]
     assert "not right; the first" in q41.tests[0].feedback   # says where the student's matches went
 
 
@@ -268,8 +289,7 @@ def test_correct_matcher_styles_pass_the_public_self_checks(style):
     matches = check_epipolarCorrespondence(matcher, verbose=False)
     structure = check_compute3D_pts(_compute3D_with(matcher), verbose=False)
     assert "1/1 passed" in matches.text() and "easy points" in matches.text(), matches.text()
-    # as the hidden Q4.2 (partial credit there), the public check fails a temple hardly better than flat
-    assert ("0/1 passed" if style in FLAT_LIKE else "1/1 passed") in structure.text(), structure.text()
+    assert "1/1 passed" in structure.text(), structure.text()
     assert "surface" in structure.text()
 
 

@@ -5,13 +5,17 @@ line, solutions.matching_styles) are matched with the true F; the share of match
 pixels of the truth is compared with what the weakest of several correct matcher styles (SSD,
 SAD, NCC, Gaussian-weighted; 5 to 101 px; local and whole-line search) reaches on those points.
 Full marks at 70 % of it, nothing at 20 % of it, linear between (the handout asks for the easy
-points, not every point).
+points, not every point).  The hidden scenes are matching temples of their own, at the official
+pair's pixel scale, and the points judged are those whose match no +-10 px box and no point of
+the line F^T x1 comes within tolerance of (autograder.hidden.cases.correspondence): searching the
+wrong line or never leaving a small box then loses most of the question.
 
-Q4.2: the 3D points of the easy points must lie on the temple's structure, up to a similarity
+Q4.2, on hidden scene 2 as the other questions see it (its points spread over every depth): the
+3D points of the easy points must lie on the temple's structure, up to a similarity
 (judging.correspondence.right_structure); the pts2 returned with them must be the matches they
 were triangulated from.  Graded through the student's ``compute3D_pts(im1, im2, F, x1, y1, C1, C2)`` when it
 accepts the reference signature and through their ``epipolarCorrespondence`` + ``triangulate``
-pipeline otherwise (the matches of Q4.1, not asked for again); the better of the two counts, and
+pipeline otherwise (the matcher called on Q4.2's points); the better of the two counts, and
 the feedback says which was used.
 """
 
@@ -101,7 +105,7 @@ def _match(student, case, convention: str = "course") -> Matched:
     return Matched(None, pts2, errors, first, reached, how)
 
 
-def _best_match(student, case) -> Matched:
+def best_match(student, case) -> Matched:
     """The course's call, and the earlier kits' call when the first is not worth full marks: the better one."""
     first = _match(student, case, "course")
     v1 = None if first.problem else jc.matches(first.pts2, case.truth2, case.tol, case.ref_share, case.pts1)
@@ -126,7 +130,7 @@ def correspondence(hidden):
 @pytest.fixture(scope="session")
 def matched(student, correspondence) -> dict:
     """``Matched`` of every scene, by case: the student's matcher called once per point, once per run."""
-    return {case: _best_match(student, case) for case in correspondence.cases}
+    return {case: best_match(student, case) for case in correspondence.cases}
 
 
 def test_matches(correspondence, matched, scene_index, score):
@@ -249,12 +253,13 @@ def temple_points(student, correspondence, matched, signatures) -> TemplePoints:
             direct_pts2 = None if pts2 is None else jc.pts2_reported(pts2, w, c.C1, c.pts1, c.C2, c.tol, _linear_error)
         if v.passed:
             break
-    w, pipe_problem = _pipeline(student, c, matched[c])
+    m = matched[c] if c in matched else best_match(student, c)
+    w, pipe_problem = _pipeline(student, c, m)
     pipe_v = None if w is None else _structure(w, c)
     if direct_v is not None and (pipe_v is None or direct_v.fraction >= pipe_v.fraction):
         return TemplePoints(direct_v, (f"graded through your {direct_sig}, called with {direct_how}",), direct_pts2)
     # Which function gave no result, and why: a point without one is otherwise only "no result".
-    failed = _matcher_failures(matched[c])
+    failed = _matcher_failures(m)
     if pipe_v is not None:
         why = f" (compute3D_pts: {direct_problem})" if direct_problem else \
             " (it placed more points right than your compute3D_pts)"

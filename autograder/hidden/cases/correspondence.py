@@ -1,5 +1,13 @@
 """Q4.1 and Q4.2: the matching problems (images, true F, points with known true matches) and the reference's shares.
 
+The hidden matching problems come from temples of their own (``matching_scenes``), drawn from the
+secret (and the draw's salt) at the config's sizes but at the official pair's pixel scale: hand-ins
+set their search ranges and windows in pixels on the official pair, whose matches lie up to 26 px
+along the line; at the smaller hidden scenes' own focal lengths the matches lie within a few
+pixels of (x1, y1), where a matcher that never leaves a +-10 px box, or searches the line F^T x1,
+finds them too.  Camera 2 is panned a little more than in the other scenes (``MATCH_TOE_DEG``), so
+that F x1 and F^T x1 part at the matches.
+
 Conventions: pixels (x, y) = (column, row); M = [R | t] world -> camera; C = K M.  Nothing here
 reaches a student.
 """
@@ -12,8 +20,19 @@ import numpy as np
 
 from judging import correspondence as jc
 
-from ..scenes import FIXED_LABELS, Scenes
+from ..scenes import FIXED_LABELS, Scenes, TempleCase
 from .base import M1
+
+# The official pair's focal length (px): the matching temples' disparities are the official's in
+# pixels (inside scenes.envelope's DISPARITY_Y), whatever the image size.
+MATCH_FOCAL = 1520.0
+# Camera 2's nominal pan (degrees) in the matching temples: image 2 shifts sideways by about
+# MATCH_FOCAL * toe (2-6 px with the seeded factor), so F^T x1 passes 4-12 px from most matches,
+# and the x disparities stay inside scenes.envelope's DISPARITY_X.
+MATCH_TOE_DEG = 0.15
+# templeCoords drawn in each matching temple: Q4.1 judges those whose match lies in a band of
+# disparities (solutions.matching_styles.scene_problem's slips), a fifth to a half of them.
+MATCH_COORDS = 600
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,16 +59,16 @@ class CorrespondenceCase:
 
 @dataclass(frozen=True, eq=False)
 class Correspondence:
-    cases: tuple[CorrespondenceCase, ...]
-    points_case: CorrespondenceCase        # the scene of Q4.2
+    cases: tuple[CorrespondenceCase, ...]   # Q4.1's, one per scene
+    points_case: CorrespondenceCase        # Q4.2's: hidden scene 2 as the other questions see it
 
 
-def _correspondence_case(key, label, scene, count, rng) -> CorrespondenceCase:
+def _correspondence_case(key, label, scene, count, rng, slips: bool = True) -> CorrespondenceCase:
     """The scene's easy points and the goal several matcher styles set on them
-    (solutions.matching_styles.scene_problem)."""
+    (solutions.matching_styles.scene_problem; ``slips``: Q4.1's points, False: Q4.2's)."""
     from solutions.matching_styles import scene_problem
 
-    rows, easy = scene_problem(scene, count, rng)
+    rows, easy = scene_problem(scene, count, rng, slips=slips)
     p1 = np.column_stack([np.ravel(scene.x1), np.ravel(scene.y1)]).astype(float)
     return CorrespondenceCase(key, label, scene.im1, scene.im2, scene.F_true, p1[rows], scene.x2_true[rows],
                               scene.K1 @ M1, scene.K2 @ scene.M2, jc.tolerance(scene.width), easy.ref_share,
@@ -63,16 +82,31 @@ def matching_labels(config) -> list[str]:
         ["the default data"] if config.use_default_data else [])
 
 
+def matching_scenes(scenes: Scenes) -> tuple[TempleCase, ...]:
+    """The hidden temples of Q4.1 and Q4.2 (see the module docstring): one per scene of the config
+    (the first two), at its size and noise, seeded from ``scenes``' draw."""
+    from scenes.temple import make_temple_scene
+
+    return tuple(TempleCase(tc.label, make_temple_scene(
+        scenes.seed(f"matching-temple-{k}"), width=spec.width, height=spec.height, noise_px=spec.noise_px,
+        focal=MATCH_FOCAL, toe_deg=MATCH_TOE_DEG, n_coords=MATCH_COORDS))
+        for k, (tc, spec) in enumerate(zip(scenes.hidden[:2], scenes.config.temples), start=1))
+
+
 def prepare_correspondence(scenes: Scenes) -> Correspondence:
-    """The matching problems of the hidden scenes (the first two) and of the default data when
-    ``scenes`` holds it (a draw made without it takes the batch's, ``combine_correspondence``)."""
+    """The matching problems of the hidden matching temples (``matching_scenes``) and of the default
+    data when ``scenes`` holds it (a draw made without it takes the batch's, ``combine_correspondence``)."""
     rng = np.random.default_rng(scenes.seed("matching"))
-    tcs = [*scenes.hidden[:2], *([scenes.default] if scenes.default else [])]
+    tcs = [*matching_scenes(scenes), *([scenes.default] if scenes.default else [])]
     cases = tuple(_correspondence_case(f"scene{k}", tc.label, tc.scene, scenes.config.match_points, rng)
                   for k, tc in enumerate(tcs))
     if scenes.default is not None or not scenes.config.use_default_data:
         _check_labels(cases, scenes.config)
-    return Correspondence(cases, cases[1])
+    # Q4.2 judges the temple's structure: its points spread over every depth (no slips' band), on
+    # hidden scene 2 at its own focal length, where the relief is told from a flat temple.
+    tc = scenes.hidden[1]
+    return Correspondence(cases, _correspondence_case("points", tc.label, tc.scene, scenes.config.match_points, rng,
+                                                      slips=False))
 
 
 def combine_correspondence(drawn: Correspondence, batch: Correspondence, config) -> Correspondence:
@@ -80,7 +114,7 @@ def combine_correspondence(drawn: Correspondence, batch: Correspondence, config)
     cases = tuple(c for c in drawn.cases if c.label not in FIXED_LABELS) + tuple(
         c for c in batch.cases if c.label in FIXED_LABELS)
     _check_labels(cases, config)
-    return Correspondence(cases, cases[1])
+    return Correspondence(cases, drawn.points_case)
 
 
 def _check_labels(cases, config) -> None:
