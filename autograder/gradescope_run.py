@@ -64,7 +64,7 @@ def check_visibility(visibility) -> dict:
 # grading on Gradescope
 
 
-def _candidates(folder: Path) -> list[Path]:
+def submission_candidates(folder: Path) -> list[Path]:
     # Listed without recursion: a folder thousands of levels deep must not stop the run.
     return sorted(p for p, _ in list_files(folder).files
                   if p.suffix.lower() in (".ipynb", ".py", ".zip")
@@ -79,7 +79,7 @@ def _submission_path(folder: Path) -> tuple[Path | None, str | None]:
     """
     if not folder.is_dir():
         return None, "no submission folder was found"
-    files = _candidates(folder)
+    files = submission_candidates(folder)
     if not files:
         return None, ("the submission holds no notebooks: upload your .ipynb files "
                       "(q2_eightpoint.ipynb, ...) or one .zip of them")

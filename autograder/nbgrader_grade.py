@@ -50,7 +50,7 @@ def question_of_grade_id(grade_id: str) -> Question | None:
 # grading
 
 
-def _describe(q) -> str:
+def question_feedback(q) -> str:
     credit = " (extra credit)" if q.extra_credit else ""
     lines = [f"{q.id} {q.title}: {q.score:g} / {q.max_score:g} points{credit}"]
     lines += [f"- {n}" for n in q.notes]
@@ -80,7 +80,7 @@ def _verdicts(result) -> dict[str, tuple[float, str]]:
             why = result.failure or "not graded"
             out[q.id] = (0.0, f"{q.id} {q.title}: 0 / {q.points} points ({why})")
         else:
-            out[q.id] = (float(by_id[q.id].score), _describe(by_id[q.id]))
+            out[q.id] = (float(by_id[q.id].score), question_feedback(by_id[q.id]))
     return out
 
 

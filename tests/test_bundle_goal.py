@@ -13,12 +13,12 @@ from judging import bundle as jb
 from solutions import rodriguesResidual
 from starter import invRodrigues, rodrigues
 from starter.checks._scenes import two_view
-from starter.checks.bundle import _generated_problem
+from starter.checks.bundle import problem_of_scene
 
 
 @pytest.fixture(scope="module")
 def problem():
-    return _generated_problem(two_view())
+    return problem_of_scene(two_view())
 
 
 def _adjusted(problem, fit):

@@ -96,9 +96,9 @@ def test_one_likely_mistake_per_cause():
     md = result.feedback_markdown()
     assert md[md.index("## Q3.3"):md.index("## Q5")].count(hint) == 1 and md.count(hint) == 2   # once per question
     assert "depth tested in one camera only (the same cause as above" in md
-    from autograder.nbgrader_grade import _describe
+    from autograder.nbgrader_grade import question_feedback
 
-    assert _describe(q33).count(hint) == 1 and _describe(q33).count("Likely mistake: depth tested") == 2   # nbgrader's
+    assert question_feedback(q33).count(hint) == 1 and question_feedback(q33).count("Likely mistake: depth tested") == 2   # nbgrader's
     for layout in (None, {"checks": "visible"}):
         q33_outputs = [t["output"] for t in result.to_gradescope(layout)["tests"] if t["name"].startswith("Q3.3 check")
                        or layout is None and t["name"].startswith("Q3.3 ")]

@@ -65,12 +65,12 @@ KEY = "key_full_marks"
 
 def judged_apart(namespace: dict, key: dict) -> list[str]:
     """The functions whose judgment can differ from the key's: those of the hidden files the
-    program's difference from the key reaches (the secret sweep's rule, ``_concepts_reached``).
+    program's difference from the key reaches (the secret sweep's rule, ``concepts_reached``).
     The others are the key's own code on the same inputs, so both sides judge them as they judge
     the key's, which the key's program checks."""
-    from test_secret_sweep import _concepts_reached, _hidden_files
+    from test_secret_sweep import concepts_reached, hidden_files_of
 
-    reached = set(_concepts_reached(namespace, key, _hidden_files()))
+    reached = set(concepts_reached(namespace, key, hidden_files_of()))
     return [f for f, (concept, _) in FUNCTIONS.items() if concept in reached]
 
 
@@ -92,10 +92,10 @@ def prepared_for(hidden, concept: str):
 
     prepared = hidden.prepared[concept]
     if concept == "bundle":
-        from starter.checks.bundle import _generated_problem
+        from starter.checks.bundle import problem_of_scene
         from starter.checks._scenes import two_view
 
-        extra = dataclasses.replace(_generated_problem(two_view()), label="the public scene")
+        extra = dataclasses.replace(problem_of_scene(two_view()), label="the public scene")
         # In place of the last hidden problem: the question's points stay those of two problems.
         prepared = dataclasses.replace(prepared, problems=(*prepared.problems[:-1], extra))
     return prepared

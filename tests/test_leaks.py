@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 
 from autograder.review.fingerprint import Fingerprints, fingerprint_code
-from autograder.review.similarity import (FLAG, _CONTAINMENT_DISCOUNT, MIN_SHARED, code_hashes, compare_function,
+from autograder.review.similarity import (FLAG, CONTAINMENT_DISCOUNT, MIN_SHARED, code_hashes, compare_function,
                                          given_hashes)
 from core.manifest import QUESTIONS
 from core.paths import KIT_ROOT, NOTEBOOKS_DIR
@@ -128,7 +128,7 @@ def release_score(reference: Fingerprints, given: set) -> tuple[float, int]:
     if not reference.hashes:
         return 0.0, 0
     containment = shared / len(reference.hashes)
-    return max(0.0, containment - _CONTAINMENT_DISCOUNT) * min(1.0, shared / MIN_SHARED), shared
+    return max(0.0, containment - CONTAINMENT_DISCOUNT) * min(1.0, shared / MIN_SHARED), shared
 
 
 def graded_references(solutions_dir: Path = SOLUTIONS) -> dict[str, Fingerprints]:

@@ -86,7 +86,7 @@ def make_sample(folder) -> dict:
     return {"figures": 3, "answered": answered}
 
 
-def _browser_or_skip() -> str:
+def browser_or_skip() -> str:
     try:
         return browser.find_browser()
     except browser.BrowserNotFoundError:
@@ -94,14 +94,14 @@ def _browser_or_skip() -> str:
                     "pip install playwright && python -m playwright install chromium")
 
 
-def _mathjax_or_skip():
+def mathjax_or_skip():
     try:
         return mathjax.find_mathjax()
     except mathjax.MathJaxNotFoundError:
         pytest.skip("no local MathJax: pip install jupyter-server-mathjax (or apt-get install libjs-mathjax)")
 
 
-def _poppler_or_skip():
+def poppler_or_skip():
     if not (shutil.which("pdftotext") and shutil.which("pdfimages")):
         pytest.skip("poppler-utils (pdftotext, pdfimages) not installed: apt-get install poppler-utils")
 
@@ -125,9 +125,9 @@ def sample(tmp_path_factory):
 @pytest.fixture(scope="module")
 def printed(sample, tmp_path_factory):
     """The sample exported once with the default engine; its pages as text."""
-    _poppler_or_skip()
-    _browser_or_skip()
-    _mathjax_or_skip()
+    poppler_or_skip()
+    browser_or_skip()
+    mathjax_or_skip()
     folder, expected = sample
     out = pdf.build_pdf(folder, tmp_path_factory.mktemp("pdf") / "hw4.pdf")
     return out, pages_of(out), expected
@@ -194,9 +194,9 @@ def test_interactive_outputs_become_images_or_notes(printed):
 
 def test_playwright_engine_waits_for_math(sample, tmp_path):
     pytest.importorskip("playwright", reason="Playwright not installed (pip install playwright)")
-    _poppler_or_skip()
-    _browser_or_skip()
-    _mathjax_or_skip()
+    poppler_or_skip()
+    browser_or_skip()
+    mathjax_or_skip()
     folder, _ = sample
     out = pdf.build_pdf([folder / "q2_eightpoint.ipynb"], tmp_path / "pw.pdf", name="Grace Hopper",
                         engine="playwright")
@@ -209,8 +209,8 @@ def test_playwright_engine_waits_for_math(sample, tmp_path):
 def test_cli_writes_pdf_and_code_zip(sample, tmp_path):
     from handin.__main__ import main
 
-    _browser_or_skip()
-    _mathjax_or_skip()
+    browser_or_skip()
+    mathjax_or_skip()
     folder, _ = sample
     assert main(["pdf", str(folder), "--out", str(tmp_path / "hw4.pdf"),
                  "--code-zip", str(tmp_path / "hw4_code.zip"), "--name", "Grace Hopper"]) == 0
@@ -224,7 +224,7 @@ def test_cli_writes_pdf_and_code_zip(sample, tmp_path):
 @pytest.fixture(scope="module")
 def page_html(sample):
     folder, _ = sample
-    _mathjax_or_skip()
+    mathjax_or_skip()
     return pdf_html.notebooks_to_html(folder)[0]
 
 
@@ -242,13 +242,13 @@ def test_html_breaks_a_page_before_each_question_and_notebook(page_html):
 
 def test_name_argument_beats_student_name(sample):
     folder, _ = sample
-    _mathjax_or_skip()
+    mathjax_or_skip()
     page, _ = pdf_html.notebooks_to_html(folder, name="Grace Hopper")
     assert "Name: Grace Hopper" in page and f"Name: {NAME}" not in page
 
 
 def test_name_placeholder_when_nobody_is_named(tmp_path):
-    _mathjax_or_skip()
+    mathjax_or_skip()
     nbformat.write(new_notebook(cells=[new_markdown_cell("## Q1.1 Fixating cameras")]), tmp_path / "q1_proofs.ipynb")
     page, _ = pdf_html.notebooks_to_html(tmp_path)
     assert f"Name: {cover.NO_NAME}" in page
@@ -402,8 +402,8 @@ def test_cli_says_once_that_the_hand_in_notebook_is_left_out(sample, tmp_path, c
     from handin.__main__ import main
     from handin.hand_in_notebook import HAND_IN_NAME, hand_in_notebook
 
-    _browser_or_skip()
-    _mathjax_or_skip()
+    browser_or_skip()
+    mathjax_or_skip()
     folder = tmp_path / "mine"
     shutil.copytree(sample[0], folder)
     nbformat.write(hand_in_notebook("print('setup')"), folder / HAND_IN_NAME)
@@ -450,9 +450,9 @@ def test_blank_written_answers_are_flagged_placeholder_or_empty(tmp_path):
 @pytest.fixture(scope="module")
 def printed_setup_and_report(tmp_path_factory):
     """A q1 notebook with a long setup cell, a check report longer than a line and a blank answer."""
-    _poppler_or_skip()
-    _browser_or_skip()
-    _mathjax_or_skip()
+    poppler_or_skip()
+    browser_or_skip()
+    mathjax_or_skip()
     folder = tmp_path_factory.mktemp("setup")
     nb = new_notebook(cells=[
         new_code_cell(SETUP_SOURCE, outputs=[new_output("stream", name="stdout", text="homework kit: /kit\n")]),

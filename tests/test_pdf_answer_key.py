@@ -12,7 +12,7 @@ from handin import pdf
 from core.manifest import NOTEBOOKS, QUESTIONS
 from core.paths import NOTEBOOKS_DIR
 
-from test_pdf import _browser_or_skip, _mathjax_or_skip, _poppler_or_skip, first_line, pages_of
+from test_pdf import browser_or_skip, mathjax_or_skip, poppler_or_skip, first_line, pages_of
 
 KEY = NOTEBOOKS_DIR / "key"
 
@@ -21,9 +21,9 @@ pytestmark = [pytest.mark.slow, pytest.mark.browser]
 
 @pytest.fixture(scope="module")
 def printed_key(tmp_path_factory):
-    _poppler_or_skip()
-    _browser_or_skip()
-    _mathjax_or_skip()
+    poppler_or_skip()
+    browser_or_skip()
+    mathjax_or_skip()
     from nbclient import NotebookClient
 
     folder = tmp_path_factory.mktemp("key")
@@ -65,9 +65,9 @@ def test_math_is_rendered_and_the_cover_lists_every_question(printed_key):
 
 
 def test_the_hand_in_notebook_makes_the_pdf_and_the_zip(tmp_path):
-    _poppler_or_skip()
-    _browser_or_skip()
-    _mathjax_or_skip()
+    poppler_or_skip()
+    browser_or_skip()
+    mathjax_or_skip()
     import shutil
 
     from nbclient import NotebookClient

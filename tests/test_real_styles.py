@@ -14,7 +14,7 @@ Wrong verdicts of today's grader are listed in ``KNOWN_WRONG`` with the reason: 
 failed (the lead empties it as the grader's fixes land); a listed verdict that is right again is
 reported too, so that the list shrinks.  Cost (two cores, about a minute and a half): the
 in-process grading reuses the sweep's machinery (``grade``: ``run_here`` on a ``LocalStudent``,
-only the hidden files asked for; ``_same``; ``parallel.fork_map``): a hidden file is run once per
+only the hidden files asked for; ``same_value``; ``parallel.fork_map``): a hidden file is run once per
 group of programs whose differences from each other do not reach its judged functions, and
 shared by the group (see "sharing work"); each program run under one of the sweep's secrets in turn
 (every secret with ``HW4_SWEEP_ALL=1``); the self-checks are shared the same way; the CLI
@@ -136,15 +136,15 @@ def corpus_here(tmp_path_factory):
 # module attributes it uses, theirs in turn, default arguments): two programs reaching the same
 # definitions from a hidden test file's judged functions get the same grades from that file under
 # one secret, and the same self-check results.  So a file is run once per group of programs
-# whose difference from each other does not reach it (the sweep's rule, ``_same`` and
-# ``_names_used`` of tests/test_secret_sweep.py, followed here through the modules of a hand-in),
+# whose difference from each other does not reach it (the sweep's rule, ``same_value`` and
+# ``names_used`` of tests/test_secret_sweep.py, followed here through the modules of a hand-in),
 # each group under one of the 20 secrets in turn.
 
 def _reached(loaded, roots) -> dict:
     """name -> definition of everything ``roots`` reach in the program ``loaded``: its functions,
     the names their code uses (in the function's module, or a module of the hand-in), and the
     attributes of modules used; followed through functions defined in the hand-in."""
-    from test_secret_sweep import _names_used
+    from test_secret_sweep import names_used
 
     own = {id(m.__dict__) for m in loaded.modules.values()}
     own |= {id(f.__globals__) for f in loaded.functions.values() if isinstance(f, types.FunctionType)}
@@ -157,7 +157,7 @@ def _reached(loaded, roots) -> dict:
         seen[name] = value
         if not (isinstance(value, types.FunctionType) and id(value.__globals__) in own):
             continue
-        used = _names_used(value.__code__)
+        used = names_used(value.__code__)
         modules = [m for m in value.__globals__.values() if isinstance(m, types.ModuleType)]
         for n in used:
             if n.startswith("__"):
@@ -176,7 +176,7 @@ def _reached(loaded, roots) -> dict:
 
 
 def _same_reach(a: dict, b: dict) -> bool:
-    from test_secret_sweep import _same
+    from test_secret_sweep import same_value
 
     if a.keys() != b.keys():
         return False
@@ -185,7 +185,7 @@ def _same_reach(a: dict, b: dict) -> bool:
         if isinstance(x, types.ModuleType) or isinstance(y, types.ModuleType):
             if not (isinstance(x, types.ModuleType) and isinstance(y, types.ModuleType) and x.__name__ == y.__name__):
                 return False
-        elif not _same(x, y):
+        elif not same_value(x, y):
             return False
     return True
 
@@ -235,9 +235,9 @@ def _grade_secret(secret: str):
 
 
 def _hidden_files_questions() -> dict:
-    from test_secret_sweep import _hidden_files
+    from test_secret_sweep import hidden_files_of
 
-    return {c: qs for c, (_, qs) in _hidden_files().items()}
+    return {c: qs for c, (_, qs) in hidden_files_of().items()}
 
 
 def _public(item):
@@ -270,10 +270,10 @@ def _public(item):
 def hidden_here(corpus_here):
     """secret -> program -> question -> (score, max, tests): each hidden file's questions of a
     program under the secret its group was graded under."""
-    from test_secret_sweep import _hidden_files
+    from test_secret_sweep import hidden_files_of
 
     started = time.perf_counter()
-    files = _hidden_files()
+    files = hidden_files_of()
     groups = _groups({c: judged for c, (judged, _) in files.items()})
     _WORK.clear()
     order = list(PROGRAMS)
@@ -298,10 +298,10 @@ def hidden_here(corpus_here):
 @pytest.fixture(scope="module")
 def public_here(corpus_here):
     """program -> question -> (passed, lines)."""
-    from test_secret_sweep import _hidden_files
+    from test_secret_sweep import hidden_files_of
 
     started = time.perf_counter()
-    files = _hidden_files()
+    files = hidden_files_of()
     # A question's self-check reaches what its hidden file's judged functions reach (compute3D_pts's
     # check may fall back to the program's matcher and triangulate, as the grader does).
     roots = {q: frozenset().union(*(j for j, qs in files.values() if q in qs)) | set(fs)
@@ -449,9 +449,9 @@ def _full_points(qid: str) -> float:
 def test_programs_share_only_what_their_difference_does_not_reach(corpus_here):
     """The sharing is sound: two per-part programs differing in essentialMatrix alone share the
     eight-point grading, not the files whose judged functions reach essentialMatrix (findM2 uses it)."""
-    from test_secret_sweep import _hidden_files
+    from test_secret_sweep import hidden_files_of
 
-    files = _hidden_files()
+    files = hidden_files_of()
     a, b = "y2022_per_part_refine_raw_full", "y2022_per_part_E_swapped_loses_Q3_1_Q3_3"
     groups = _groups({c: files[c][0] for c in ("fundamental", "essential", "pose", "correspondence")})
     together = {c: any(a in m and b in m for m in per) for c, per in groups.items()}

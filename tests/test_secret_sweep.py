@@ -119,7 +119,7 @@ class Program:
         return not self.loses and not self.zero
 
 
-def _hidden_files() -> dict[str, tuple[frozenset, frozenset]]:
+def hidden_files_of() -> dict[str, tuple[frozenset, frozenset]]:
     """concept -> (functions its hidden test file calls, questions it grades), read from the files
     that grade a question."""
     from autograder.hidden.plugin import HIDDEN_DIR
@@ -134,12 +134,12 @@ def _hidden_files() -> dict[str, tuple[frozenset, frozenset]]:
     return out
 
 
-def _names_used(code: types.CodeType) -> set[str]:
+def names_used(code: types.CodeType) -> set[str]:
     """Global (and attribute) names a function's code mentions, its nested code included."""
     names = set(code.co_names)
     for const in code.co_consts:
         if isinstance(const, types.CodeType):
-            names |= _names_used(const)
+            names |= names_used(const)
     return names
 
 
@@ -153,25 +153,25 @@ def _reach(namespace: dict, roots) -> set[str]:
         seen.add(name)
         value = namespace.get(name)
         if isinstance(value, types.FunctionType) and value.__globals__ is namespace:
-            todo += _names_used(value.__code__)
+            todo += names_used(value.__code__)
     return seen
 
 
 _MISSING = object()
 
 
-def _same(a, b) -> bool:
+def same_value(a, b) -> bool:
     """The same definition: one object, functions compiled from the same text, or equal values."""
     if a is b:
         return True
     try:
         if isinstance(a, types.FunctionType) and isinstance(b, types.FunctionType):
-            return (a.__code__ == b.__code__ and _same(a.__defaults__, b.__defaults__)
-                    and _same(a.__kwdefaults__, b.__kwdefaults__))
+            return (a.__code__ == b.__code__ and same_value(a.__defaults__, b.__defaults__)
+                    and same_value(a.__kwdefaults__, b.__kwdefaults__))
         if isinstance(a, dict) and isinstance(b, dict):
-            return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+            return a.keys() == b.keys() and all(same_value(a[k], b[k]) for k in a)
         if isinstance(a, tuple) and isinstance(b, tuple):
-            return len(a) == len(b) and all(map(_same, a, b))
+            return len(a) == len(b) and all(map(same_value, a, b))
         if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
             return type(a) is type(b) and a.dtype == b.dtype and bool(np.array_equal(a, b))
         return type(a) is type(b) and isinstance(a, (int, float, str, bytes, frozenset, type(None))) and a == b
@@ -182,10 +182,10 @@ def _same(a, b) -> bool:
 def _changed(namespace: dict, key: dict, roots) -> set[str]:
     """The names ``roots`` reach (in either namespace) that are defined otherwise than in the key."""
     names = _reach(namespace, roots) | _reach(key, roots)
-    return {n for n in names if not _same(namespace.get(n, _MISSING), key.get(n, _MISSING))}
+    return {n for n in names if not same_value(namespace.get(n, _MISSING), key.get(n, _MISSING))}
 
 
-def _concepts_reached(namespace: dict, key: dict, files) -> tuple[str, ...]:
+def concepts_reached(namespace: dict, key: dict, files) -> tuple[str, ...]:
     """The hidden test files whose judged functions reach a name defined otherwise than in the key."""
     return tuple(concept for concept, (judged, _) in files.items() if _changed(namespace, key, judged))
 
@@ -202,7 +202,7 @@ def _cell_case(function: str, source: str) -> corpus.Case:
 
 def make_programs() -> list[Program]:
     """The key first, then every corpus case run here and every cell of ``CELLS``."""
-    files = _hidden_files()
+    files = hidden_files_of()
     programs = [Program(n, corpus.program_namespace(n, _HOMEWORK), corpus.CASES[n].loses, corpus.CASES[n].zero)
                 for n in CASE_NAMES]
     programs += [Program(n, corpus.program_namespace(n, _HOMEWORK, _cell_case(f, s)), loses)
@@ -212,7 +212,7 @@ def make_programs() -> list[Program]:
     key.concepts, key.secrets = tuple(files), tuple(SECRETS)
     costly = 0
     for p in programs:
-        p.concepts = _concepts_reached(p.namespace, key.namespace, files)
+        p.concepts = concepts_reached(p.namespace, key.namespace, files)
         p.costly = not p.zero and _costly(p.namespace, key.namespace)  # stubs raise at once: cheap
         p.secrets = tuple(SECRETS[costly % COSTLY_STRIDE::COSTLY_STRIDE] if p.costly else SECRETS)
         costly += p.costly
@@ -400,7 +400,7 @@ def _print_known(known):
 
 def test_every_autograded_question_is_swept(sweep):
     programs, graded = sweep
-    files = _hidden_files()
+    files = hidden_files_of()
     questions = frozenset().union(*(q for _, q in files.values()))
     assert questions == corpus.ALL_AUTOGRADED
     for secret, per_program in graded.items():
@@ -454,13 +454,13 @@ def test_mistakes_lose_their_questions_and_only_those_under_every_secret(sweep):
 def test_each_program_runs_only_what_its_difference_reaches():
     """The saving above is sound: the key's own namespace reaches nothing, a changed function reaches
     the files that call it, directly or through the key's functions that use it."""
-    files = _hidden_files()
+    files = hidden_files_of()
     key = corpus.program_namespace("key_full_marks", _HOMEWORK)
     again = corpus.program_namespace("key_full_marks", _HOMEWORK)
-    assert _concepts_reached(again, key, files) == ()
+    assert concepts_reached(again, key, files) == ()
     tri = corpus.program_namespace("t", _HOMEWORK, _cell_case("triangulate", variants.TRIANGULATE_W_NOT_DIVIDED))
-    assert {"triangulation", "pose", "correspondence"} <= set(_concepts_reached(tri, key, files))
-    assert "fundamental" not in _concepts_reached(tri, key, files)
+    assert {"triangulation", "pose", "correspondence"} <= set(concepts_reached(tri, key, files))
+    assert "fundamental" not in concepts_reached(tri, key, files)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -39,7 +39,7 @@ __all__ = ["FLAG", "MIN_SHARED", "FunctionComparison", "Group", "Pair", "compare
 
 FLAG = 0.5
 MIN_SHARED = 24.0  # about three statements: a fingerprint per unit plus its winnowed k-grams
-_CONTAINMENT_DISCOUNT = 0.15
+CONTAINMENT_DISCOUNT = 0.15
 
 
 @dataclass(frozen=True)
@@ -195,7 +195,7 @@ def compare_function(function: str, items: Iterable[tuple[str, Fingerprints]]) -
         jac = np.where(union > 0, shared / union, 0.0)
         small = np.minimum(sizes[:, None], sizes[None, :])
         con = np.where(small > 0, shared / small, 0.0)
-    score = np.maximum(jac, con - _CONTAINMENT_DISCOUNT) * np.minimum(1.0, shared / MIN_SHARED)
+    score = np.maximum(jac, con - CONTAINMENT_DISCOUNT) * np.minimum(1.0, shared / MIN_SHARED)
     score = np.clip(score, 0.0, 1.0)
     np.fill_diagonal(score, 0.0)
     return FunctionComparison(function, names, fps, score, jac, con, shared)

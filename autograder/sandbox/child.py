@@ -528,7 +528,7 @@ def _describe(exc, origins, limit):
 # ---------------------------------------------------------------------------------------------
 
 
-def _load(units, module, timeout, origins, limit):
+def load_units(units, module, timeout, origins, limit):
     errors = []
     flags = 0
     _arm(timeout)
@@ -556,7 +556,7 @@ def _load(units, module, timeout, origins, limit):
     return errors
 
 
-class _StudentModules:
+class StudentModules:
     """Meta-path importer of the student's own .py files: the units with a "module" key are that
     module's body, run unit by unit like the others (served from the job, never read from disk;
     last on sys.meta_path, so the standard library and the kit's packages keep their names)."""
@@ -799,9 +799,9 @@ def main(argv):
     sys.modules["__main__"] = module  # classes the student defines need their module registered
     origins = set()
     units = job.get("units", [])
-    modules = _StudentModules([u for u in units if u.get("module")], origins, limit)
+    modules = StudentModules([u for u in units if u.get("module")], origins, limit)
     sys.meta_path.append(modules)
-    errors = _load([u for u in units if not u.get("module")], module, float(job.get("load_timeout", 60)), origins, limit)
+    errors = load_units([u for u in units if not u.get("module")], module, float(job.get("load_timeout", 60)), origins, limit)
     errors += modules.errors
     defined = sorted(k for k, v in list(module.__dict__.items())
                      if not k.startswith("__") and isinstance(v, (types.FunctionType, type)))[:2000]

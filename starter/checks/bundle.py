@@ -135,7 +135,7 @@ def _start(pair, n, rng):
     return np.hstack([R0, t0[:, None]]), w0
 
 
-def _generated_problem(tv: NoisyPair) -> BAProblem:
+def problem_of_scene(tv: NoisyPair) -> BAProblem:
     pair, n = tv.pair, _N_BA
     M2_init, w_init = _start(pair, n, np.random.default_rng(PUBLIC_SEED))
     p1, p2 = tv.pts1_u16[:n].astype(float), tv.pts2_u16[:n].astype(float)
@@ -168,7 +168,7 @@ def check_bundleAdjustment(bundleAdjustment, *, scene: NoisyPair | None = None, 
     report = CheckReport("bundleAdjustment")
     notes = []
     if problems is None:
-        problems = [_generated_problem(scene or two_view())]
+        problems = [problem_of_scene(scene or two_view())]
         if scene is None:
             notes.append(NO_DEFAULT_DATA)
     report.notes.extend(notes)

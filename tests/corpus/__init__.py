@@ -63,14 +63,14 @@ def notebooks(variant: str) -> Notebooks:
     return {stem: copy.deepcopy(nb) for stem, nb in _built(variant)}
 
 
-def _stem_of(nbs: Notebooks, function: str) -> str:
+def stem_of(nbs: Notebooks, function: str) -> str:
     for stem, nb in nbs.items():
-        if _cell_index(nb, function) is not None:
+        if cell_index(nb, function) is not None:
             return stem
     raise LookupError(f"function: no notebook defines {function}")
 
 
-def _cell_index(nb, function: str) -> int | None:
+def cell_index(nb, function: str) -> int | None:
     pattern = re.compile(rf"^def {re.escape(function)}\(", re.MULTILINE)
     for k, cell in enumerate(nb.cells):
         if cell.cell_type == "code" and pattern.search(cell.source):
@@ -80,14 +80,14 @@ def _cell_index(nb, function: str) -> int | None:
 
 def replace_function(nbs: Notebooks, function: str, source: str) -> None:
     """Put ``source`` in place of the cell that defines ``function``."""
-    nb = nbs[_stem_of(nbs, function)]
-    nb.cells[_cell_index(nb, function)] = nbformat.v4.new_code_cell(source)
+    nb = nbs[stem_of(nbs, function)]
+    nb.cells[cell_index(nb, function)] = nbformat.v4.new_code_cell(source)
 
 
 def after_function(nbs: Notebooks, function: str, source: str) -> None:
     """Insert a cell with ``source`` right after the cell that defines ``function``."""
-    nb = nbs[_stem_of(nbs, function)]
-    nb.cells.insert(_cell_index(nb, function) + 1, nbformat.v4.new_code_cell(source))
+    nb = nbs[stem_of(nbs, function)]
+    nb.cells.insert(cell_index(nb, function) + 1, nbformat.v4.new_code_cell(source))
 
 
 def append_cell(nbs: Notebooks, stem: str, source: str) -> None:
@@ -95,14 +95,14 @@ def append_cell(nbs: Notebooks, stem: str, source: str) -> None:
 
 
 def delete_function(nbs: Notebooks, function: str) -> None:
-    nb = nbs[_stem_of(nbs, function)]
-    del nb.cells[_cell_index(nb, function)]
+    nb = nbs[stem_of(nbs, function)]
+    del nb.cells[cell_index(nb, function)]
 
 
 def syntax_error_in(nbs: Notebooks, function: str) -> None:
     """A stray unclosed bracket at the end of the cell that defines ``function``."""
-    nb = nbs[_stem_of(nbs, function)]
-    cell = nb.cells[_cell_index(nb, function)]
+    nb = nbs[stem_of(nbs, function)]
+    cell = nb.cells[cell_index(nb, function)]
     cell.source += "\n\nprint('done'\n"
 
 

@@ -12,7 +12,7 @@ import nbformat
 
 from core.manifest import QUESTIONS
 
-from . import _cell_index, _stem_of, notebooks
+from . import cell_index, stem_of, notebooks
 
 __all__ = ["ALL_HANG", "build_all_hang", "hanging_functions"]
 
@@ -29,8 +29,8 @@ def build_all_hang(folder: str | Path) -> Path:
     and a ``while True: pass`` body, as ``folder/every_function_hangs/<stem>.ipynb``."""
     nbs = notebooks("key")
     for function in hanging_functions():
-        nb = nbs[_stem_of(nbs, function)]
-        k = _cell_index(nb, function)
+        nb = nbs[stem_of(nbs, function)]
+        k = cell_index(nb, function)
         found = re.search(rf"^def {re.escape(function)}\((.*?)\):", nb.cells[k].source, re.MULTILINE | re.DOTALL)
         signature = found.group(1) if found else "*args, **kwargs"
         nb.cells[k] = nbformat.v4.new_code_cell(f"def {function}({signature}):\n    while True:\n        pass\n")

@@ -421,18 +421,18 @@ class Loaded:
 def load(name: str, folder: str | Path) -> Loaded:
     """Build program ``name`` in ``folder`` and load it here as the sandbox child would (only the
     kit's own tests do this; the grader runs submissions in its sandbox)."""
-    from autograder.sandbox.child import _load, _StudentModules
+    from autograder.sandbox.child import load_units, StudentModules
     from autograder.submission import load_submission
 
     sub = load_submission(build(name, folder))
     units = [u.to_job() for u in sub.units()]
-    importer = _StudentModules([u for u in units if u.get("module")], set(), 500)
+    importer = StudentModules([u for u in units if u.get("module")], set(), 500)
     names = list(importer.bodies)
     saved = {n: sys.modules.pop(n) for n in names if n in sys.modules}
     module = types.ModuleType(f"realstyle_{name}")
     sys.meta_path.append(importer)
     try:
-        errors = _load([u for u in units if not u.get("module")], module, 120.0, set(), 500) + importer.errors
+        errors = load_units([u for u in units if not u.get("module")], module, 120.0, set(), 500) + importer.errors
         modules = {n: sys.modules[n] for n in names if n in sys.modules}
     finally:
         sys.meta_path.remove(importer)
