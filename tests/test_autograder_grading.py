@@ -38,6 +38,8 @@ from autograder.sandbox import CallOutcome, ResourceLimits, Sandbox, live_pids_o
 from autograder.submission import load_submission
 from core.manifest import NOTEBOOKS, QUESTIONS, question
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 QIDS = autograded_question_ids()
 

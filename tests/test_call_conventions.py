@@ -32,6 +32,8 @@ from autograder.hidden.keep import default_keep
 from autograder.hidden.plugin import LocalStudent, run_here
 from autograder.sandbox import ResourceLimits
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 
 

@@ -36,8 +36,8 @@ DOCKER_CAPS = ("-all,+chown,+dac_override,+fowner,+fsetid,+kill,+setgid,+setuid,
                "+net_raw,+sys_chroot,+mknod,+audit_write,+setfcap")
 PUBLIC_PYTHON = Path("/usr/bin/python3")
 
-pytestmark = pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None,
-                                reason="the deployment shapes need root and util-linux setpriv")
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None,
+                                reason="the deployment shapes need root and util-linux setpriv")]
 
 
 def in_container(argv: list[str]) -> list[str]:

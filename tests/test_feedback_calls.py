@@ -27,6 +27,8 @@ from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from autograder.sandbox import CallOutcome
 from judging.verdict import Malformed
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 # function -> (concept: autograder/hidden/test_<concept>.py, question, words of the names of its tests)
 FUNCTIONS = {
     "essentialMatrix": ("essential", "Q3.1", ("",)),

@@ -17,6 +17,8 @@ from starter.keypoints import plot_3d_keypoint, plot_3d_keypoint_frames, visuali
 from core.paths import KIT_ROOT
 from core.skeleton import CAR_SKELETON
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 PLOTLY_MIME = "application/vnd.plotly.v1+json"
 
 

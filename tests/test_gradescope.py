@@ -29,6 +29,8 @@ from core.manifest import NOTEBOOKS, QUESTIONS
 from tests.gradescope_like import unpack
 
 from core.paths import KIT_ROOT, course_data_dir
+
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
 KEY = KIT_ROOT / "notebooks" / "key"
 STUDENT = KIT_ROOT / "notebooks"
 # The grading secret every hidden seed derives from; distinctive, so finding it cannot be chance.

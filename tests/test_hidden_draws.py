@@ -27,6 +27,8 @@ from autograder.hidden.scenes import FIXED_LABELS
 from autograder.sandbox import ResourceLimits, Sandbox
 from autograder.submission import load_submission
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 
 

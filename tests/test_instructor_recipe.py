@@ -22,6 +22,8 @@ from autograder.key import write_key_submission
 
 from core.paths import KIT_ROOT
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 NEW_CHECK = '''
 import numpy as np
 import pytest

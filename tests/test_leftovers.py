@@ -21,6 +21,8 @@ from autograder.sandbox import Sandbox, leftovers
 
 from core.paths import KIT_ROOT
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 # A grader: makes one folder of each kind in the root given, says where, and waits to be killed.
 GRADER = textwrap.dedent('''
     import sys, tempfile, time

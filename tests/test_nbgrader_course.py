@@ -29,6 +29,8 @@ from autograder.config import load_config, quick_config
 from core.manifest import NOTEBOOKS, QUESTIONS, question
 from core.paths import KIT_ROOT
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 SOURCE = KIT_ROOT / "notebooks" / "nbgrader" / "source" / "hw4"
 HAS_NBGRADER = importlib.util.find_spec("nbgrader") is not None
 needs_nbgrader = pytest.mark.skipif(not HAS_NBGRADER, reason="nbgrader is not installed (pip install 'nbgrader>=0.9.6,<0.10')")

@@ -27,6 +27,8 @@ from handin import html as pdf_html
 from handin.code_zip import inspect_notebook
 from core.manifest import QUESTIONS
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 NAME = "Ada Lovelace"
 # No hyphens: pdftotext joins a line that wraps after "-" to the next one and drops the hyphen.
 LONG_LINE = "LONG_LINE_7f3a = '" + "".join(f"{i:03d}." for i in range(70)) + "END_OF_LONG_LINE_7f3a'"

@@ -28,7 +28,7 @@ from starter.epipolar import refineF
 from core.paths import KIT_ROOT
 
 # The hidden tests register their "points" marker in their own pytest.ini, not here.
-pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnknownMarkWarning")
+pytestmark = [pytest.mark.slow, pytest.mark.filterwarnings("ignore::pytest.PytestUnknownMarkWarning")]
 
 DEF = "def eightpoint(pts1, pts2, M):\n    "
 CALL = "F = refineF(F, p1, p2)"

@@ -31,8 +31,8 @@ DOCKER_CAPS = ("-all,+chown,+dac_override,+fowner,+fsetid,+kill,+setgid,+setuid,
 SHARED = ("/tmp", "/var/tmp", "/dev/shm", "/run/lock")
 LEAKER = "leaks_fds_and_cwd_in_epipolarCorrespondence_full_marks"
 
-pytestmark = pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None or shutil.which("unshare") is None,
-                                reason="the levels tested need root, util-linux setpriv and unshare")
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None or shutil.which("unshare") is None,
+                                reason="the levels tested need root, util-linux setpriv and unshare")]
 
 
 def in_container(argv: list[str]) -> list[str]:

@@ -26,6 +26,8 @@ from solutions.twisted_pair import MARGIN, TRIANGULATIONS, candidate_roles, twis
 from starter.checks._scenes import PUBLIC_SEED
 from starter.checks.twisted_pair import CASE_FILE, decode, public_case
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 SECRETS = ("twisted-a", "twisted-b", "twisted-c")
 
 
