@@ -209,3 +209,57 @@ def test_judging_and_core_load_neither_starter_nor_scipy():
             "print(sorted({m.split('.')[0] for m in sys.modules} & {'starter', 'scipy'}))\n")
     out = subprocess.run([sys.executable, "-c", code], cwd=KIT_ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+def private_imports(paths) -> list[str]:
+    """``file:line: module imports name`` for every ``from X import _name`` in ``paths`` where X is
+    another module (a module's private names are its own: a neighbour needing one needs a public
+    name for it)."""
+    bad = []
+    for path in paths:
+        mod = module_name(path)
+        package = mod.split(".") if path.name == "__init__.py" else mod.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+            if not isinstance(node, ast.ImportFrom):
+                continue
+            target = ".".join(package[: len(package) - node.level + 1] + ([node.module] if node.module else [])) \
+                if node.level else (node.module or "")
+            for a in node.names:
+                if a.name.startswith("_") and not a.name.startswith("__") and target != mod:
+                    bad.append(f"{path.relative_to(KIT_ROOT)}:{node.lineno}: {target} imports {a.name}")
+    return bad
+
+
+def test_no_private_name_is_imported_from_another_module():
+    files = shipped_files() + sorted((KIT_ROOT / "benchmarks").glob("*.py"))
+    bad = private_imports(files)
+    assert not bad, "private names imported across modules:\n" + "\n".join(bad)
+
+
+def test_the_private_import_reader_sees_relative_and_absolute_imports(tmp_path, monkeypatch):
+    pkg = tmp_path / "scenes"
+    pkg.mkdir()
+    (pkg / "a.py").write_text("from .b import _hidden, shown\nfrom scenes.b import _other\nfrom . import __doc__\n")
+    monkeypatch.setattr(sys.modules[__name__], "KIT_ROOT", tmp_path)
+    assert private_imports([pkg / "a.py"]) == ["scenes/a.py:1: scenes.b imports _hidden",
+                                               "scenes/a.py:2: scenes.b imports _other"]
+
+
+
+def is_test_of(test_file: Path, module: str) -> bool:
+    """True when ``test_file`` (tests/test_<words>.py) is a test of ``module``: one of the module's
+    own names (its package and module names under the top-level package) is among its words."""
+    words = set(test_file.stem.split("_")[1:])
+    return bool(words & set(module.split(".")[1:]))
+
+
+def test_tests_import_private_names_only_from_the_module_they_test():
+    tests = KIT_ROOT / "tests"
+    files = sorted(p for p in tests.rglob("*.py") if "__pycache__" not in p.parts)
+    bad = []
+    for line in private_imports(files):
+        where, _, what = line.partition(": ")
+        module = what.split(" imports ")[0]
+        if not (where.startswith("tests/test_") and is_test_of(KIT_ROOT / where.split(":")[0], module)):
+            bad.append(line)
+    assert not bad, "tests importing another module's private names:\n" + "\n".join(bad)
