@@ -251,6 +251,41 @@ class Score:
 # options, markers and fixtures
 
 
+@dataclasses.dataclass
+class RunState:
+    """What one pytest session of the hidden checks keeps about its submission (``config.hw4``).
+
+    started: ``time.monotonic()`` at configuration; results: test node id -> (question id, list of
+    ``TestResult``); log: notes for staff only; session: the sandbox session of the checks (None
+    before the first check, or in-process); draw: the short digest of the hidden draw graded;
+    failure: why the submission could not be graded (then nothing ran); pictures: question -> the
+    drawn picture's record.
+    """
+
+    started: float = dataclasses.field(default_factory=time.monotonic)
+    results: dict = dataclasses.field(default_factory=dict)
+    log: list = dataclasses.field(default_factory=list)
+    session: object | None = None
+    draw: str | None = None
+    failure: str | None = None
+    pictures: dict = dataclasses.field(default_factory=dict)
+    _submission: object | None = None
+
+    def submission(self, path):
+        """The parsed submission at ``path`` (``autograder.submission.Submission``): read once,
+        whichever part of the session asks first.  Raises ``SubmissionError`` when unreadable."""
+        if self._submission is None:
+            from autograder.submission import load_submission
+
+            self._submission = load_submission(path)
+        return self._submission
+
+    @property
+    def parsed(self):
+        """The submission when it was read, else None."""
+        return self._submission
+
+
 def pytest_addoption(parser):
     g = parser.getgroup("hw4", "hidden checks of the homework")
     g.addoption("--submission", default=None, help="the submission to grade (folder or .zip of notebooks)")
@@ -274,7 +309,7 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "points(value, question, name=None, visibility='visible'): "
                                        "what a hidden check is worth and which question it counts for")
     config.addinivalue_line("markers", "picture: the unscored picture step (autograder.pictures), run after every check")
-    config._hw4 = {"results": {}, "log": [], "session": None, "started": time.monotonic()}
+    config.hw4 = RunState()
 
 
 def config_of(config):
@@ -316,11 +351,11 @@ def hidden(request, grading_config):
         batch = inputs.build_hidden_inputs(grading_config)
     if (batch.draw is not None or local is not None or not request.config.getoption("--submission")
             or request.config.getoption("--secret-scenes")):
-        request.config._hw4["draw"] = batch.draw
+        request.config.hw4.draw = batch.draw
         return batch
     keep = request.config.getoption("--keep")
     drawn = _draw(batch, inputs.code_salt(request.getfixturevalue("submission")), Keep(keep) if keep else None)
-    request.config._hw4["draw"] = drawn.draw
+    request.config.hw4.draw = drawn.draw
     return drawn
 
 
@@ -372,17 +407,16 @@ def pytest_collection_modifyitems(session, config, items):
     path = config.getoption("--submission")
     if not path or _local(config) is not None:
         return
-    from autograder.submission import SubmissionError, load_submission
+    from autograder.submission import SubmissionError
 
     try:
-        sub = config._hw4["submission"] = load_submission(path)
+        sub = config.hw4.submission(path)
     except SubmissionError as exc:
-        config._hw4["failure"] = str(exc)
+        config.hw4.failure = str(exc)
     else:
         if not sub.notebooks:
-            config._hw4["failure"] = ("no notebook of the homework was found (expected files such as "
-                                      "q2_eightpoint.ipynb)")
-    if config._hw4.get("failure"):
+            config.hw4.failure = "no notebook of the homework was found (expected files such as q2_eightpoint.ipynb)"
+    if config.hw4.failure:
         config.hook.pytest_deselected(items=list(items))
         items[:] = []
 
@@ -390,14 +424,10 @@ def pytest_collection_modifyitems(session, config, items):
 @pytest.fixture(scope="session")
 def submission(request):
     """The parsed submission (``autograder.submission.Submission``), read once per run."""
-    from autograder.submission import load_submission
-
     path = request.config.getoption("--submission")
     if not path:
         raise pytest.UsageError("--submission: expected the path of a submission to grade, got none")
-    if request.config._hw4.get("submission") is None:
-        request.config._hw4["submission"] = load_submission(path)
-    return request.config._hw4["submission"]
+    return request.config.hw4.submission(path)
 
 
 @pytest.fixture(scope="session")
@@ -437,7 +467,7 @@ def student(request, grading_config, hidden):
     # The grader's refineF results (a pure function, the costliest of Q2) are kept with the draws.
     helpers.remember_in(Keep(keep).fetch if keep else None)
     session = sandbox.session(list(submission.units()), load_timeout=grading_config.load_timeout, budget=budget)
-    request.config._hw4["session"] = session
+    request.config.hw4.session = session
     yield Student(session, grading_config.time_scale)
     session.close()
 
@@ -490,7 +520,7 @@ def pytest_runtest_makereport(item, call):
     from autograder.results import QuestionResult, TestResult
 
     points, qid, name, visibility = marker
-    store = item.config._hw4["results"]
+    store = item.config.hw4.results
     if report.skipped and call.when != "teardown":
         return
     score = item.funcargs.get("score") if hasattr(item, "funcargs") else None
@@ -515,7 +545,7 @@ def pytest_runtest_makereport(item, call):
         message = str(exc).split("\nassert ")[0].strip() or "the check failed"
         feedback = tidy(message)
     else:
-        item.config._hw4["log"].append(f"{item.nodeid} ({call.when}):\n{report.longreprtext}")
+        item.config.hw4.log.append(f"{item.nodeid} ({call.when}):\n{report.longreprtext}")
         feedback = ("The autograder could not judge this check because of an internal error; the course staff "
                     "has been told and will grade it.")
     recorded = score.mistakes if isinstance(exc, CheckFailed) and score is not None else ()
@@ -527,14 +557,15 @@ def collect_result(config):
     a failed one when the submission could not be read."""
     from autograder.results import QuestionResult, SubmissionResult
 
-    if config._hw4.get("failure"):
+    state = config.hw4
+    if state.failure:
         isolation = _spec_isolation(config)
-        return SubmissionResult.failed(config._hw4["failure"], student_id=config.getoption("--student-id"),
-                                       isolation=isolation, execution_time=time.monotonic() - config._hw4["started"],
+        return SubmissionResult.failed(state.failure, student_id=config.getoption("--student-id"),
+                                       isolation=isolation, execution_time=time.monotonic() - state.started,
                                        configuration=_stamp(config, isolation, None))
 
     by_q: dict[str, list] = {}
-    for qid, tests in config._hw4["results"].values():
+    for qid, tests in state.results.values():
         by_q.setdefault(qid, []).extend(tests)
     _note_own_helpers(config, by_q)
     known = {q.id: q for q in QUESTIONS}
@@ -546,18 +577,16 @@ def collect_result(config):
             q = question(qid)
             total = sum(t.max_score for t in tests)
             if abs(total - q.points) > 1e-6:
-                config._hw4["log"].append(f"{qid}: the checks add up to {total:g} points, the manifest says {q.points}")
+                state.log.append(f"{qid}: the checks add up to {total:g} points, the manifest says {q.points}")
             questions.append(QuestionResult(q.id, q.title, tests, q.extra_credit, q.by_hand))
         else:
             questions.append(QuestionResult(qid, qid, tests))
-    session = config._hw4["session"]
+    session = state.session
     notes: list[str] = []
     isolation = None
     try:
-        from autograder.submission import load_submission
-
         path = config.getoption("--submission")
-        sub = config._hw4.get("submission") or (load_submission(path) if path else None)
+        sub = state.submission(path) if path else None
         if sub is not None:
             notes += [str(n) for n in sub.notes()]
     except Exception:  # noqa: BLE001, S110 - an unreadable submission already failed its checks
@@ -568,9 +597,8 @@ def collect_result(config):
         notes += _load_notes(info.load_errors)
     isolation = isolation or _spec_isolation(config)
     # Which draw of the hidden scenes was graded, as a short digest only (never a seed or a scene).
-    draw = config._hw4.get("draw")
     return SubmissionResult(tuple(questions), config.getoption("--student-id"), isolation, tuple(notes), None,
-                            time.monotonic() - config._hw4["started"], _stamp(config, isolation, draw))
+                            time.monotonic() - state.started, _stamp(config, isolation, state.draw))
 
 
 def _spec_isolation(config) -> dict | None:
@@ -606,12 +634,9 @@ def _own_helpers(config) -> dict[str, str]:
     local = _local(config)
     if local is not None:
         return {name: "" for name in getattr(local.student, "functions", {}) if name in GIVEN_HELPERS}
-    sub = config._hw4.get("submission")
     try:
-        if sub is None and config.getoption("--submission"):
-            from autograder.submission import load_submission
-
-            sub = config._hw4["submission"] = load_submission(config.getoption("--submission"))
+        path = config.getoption("--submission")
+        sub = config.hw4.submission(path) if path else None
     except Exception:  # noqa: BLE001 - an unreadable submission already failed its checks
         return {}
     return sub.own_helpers() if sub is not None else {}
@@ -646,18 +671,18 @@ def _load_notes(load_errors) -> list[str]:
 def pytest_sessionfinish(session, exitstatus):
     config = session.config
     path = config.getoption("--results", None)
-    if not path or not hasattr(config, "_hw4"):
+    if not path or not hasattr(config, "hw4"):
         return
     result = collect_result(config)
-    staff = {"log": list(config._hw4["log"])}
-    s = config._hw4["session"]
+    staff = {"log": list(config.hw4.log)}
+    s = config.hw4.session
     if s is not None:
         info = s.info
         staff.update(stdout=info.stdout[:_OUTPUT_KEPT], stderr=info.stderr[:_OUTPUT_KEPT], spawns=info.spawns,
                      swept=info.swept, removed={"entries": info.removed[0], "bytes": info.removed[1],
                                                 "not_removed": list(info.not_removed)},
                      over_quota=list(info.over_quota), survived=list(info.survived))
-    text = json.dumps({"result": result.to_dict(), "staff": staff, "pictures": config._hw4.get("pictures", {})},
+    text = json.dumps({"result": result.to_dict(), "staff": staff, "pictures": config.hw4.pictures},
                       allow_nan=False, default=str)
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "w") as fh:
@@ -665,7 +690,7 @@ def pytest_sessionfinish(session, exitstatus):
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
-    if not hasattr(config, "_hw4") or not (config._hw4["results"] or config._hw4.get("failure")):
+    if not hasattr(config, "hw4") or not (config.hw4.results or config.hw4.failure):
         return
     result = collect_result(config)
     tr = terminalreporter
@@ -678,6 +703,6 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
         tr.write_line(f"{q.id:6s} {q.score:7.2f} / {q.max_score:g}")
     tr.write_line(f"total  {result.score:7.2f} / {result.max_score:g}" + (" (+ extra credit)" if any(
         q.extra_credit for q in result.questions) else ""))
-    for line in config._hw4["log"]:
+    for line in config.hw4.log:
         tr.write_line("grader: " + for_terminal(line.splitlines()[0]))
 

@@ -45,4 +45,4 @@ def test_picture(question, request):
     record = run_public(student, question, signatures=request.getfixturevalue("signatures"))
     if record:  # {}: no picture of this question in the pictures module
         # Drawn here, in this worker (the grader's own process; student code ran in the sandbox).
-        config._hw4.setdefault("pictures", {})[question] = drawn(question, record)
+        config.hw4.pictures[question] = drawn(question, record)
