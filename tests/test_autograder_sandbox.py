@@ -557,10 +557,16 @@ def test_cpu_clock_stops_a_spinning_call_at_its_cpu_budget_and_lets_a_waiting_on
         spun = session.call("spin", seconds=0.6, clock="cpu")
         # 1.2 s of sleep is almost no CPU time: within a 0.5 s CPU budget (wall clock: a timeout).
         napped = session.call("nap_then_answer", seconds=0.5, clock="cpu")
+        spawns = session.info.spawns
+        # A fresh child (the picture step's) and a request of several inputs: spin costs its limit once.
+        session.restart()
+        again = session.map("spin", [((), {}), ((), {})], seconds=0.6, clock="cpu")
     assert spun.status == "timeout" and spun.stopped_by == "cpu" and "CPU time" in spun.message
     assert 0.5 <= spun.seconds < 0.6 + 1.0  # stopped by the child itself, about when its CPU ran out
     assert napped.status == "ok" and napped.value == 7
-    assert session.info.spawns == 1  # the child stopped the spinning call itself: no restart
+    assert spawns == 1  # the child stopped the spinning call itself: no restart
+    assert [o.status for o in again] == ["timeout"] * 2 and all("not run" in o.message for o in again)
+    assert session.info.spawns == 1  # nothing was started to answer it
 
 
 def test_cpu_clock_kills_a_sleeping_call_at_the_wall_backstop(box):
