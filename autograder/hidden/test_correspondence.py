@@ -10,7 +10,7 @@ pair's pixel scale, and the points judged are those whose match no +-10 px box a
 the line F^T x1 comes within tolerance of (autograder.hidden.cases.correspondence): searching the
 wrong line or never leaving a small box then loses most of the question.
 
-Q4.2, on hidden scene 2 as the other questions see it (its points spread over every depth): the
+Q4.2, on hidden scene 2's matching temple, its easy points spread over every depth: the
 3D points of the easy points must lie on the temple's structure, up to a similarity
 (judging.correspondence.right_structure); the pts2 returned with them must be the matches they
 were triangulated from.  Graded through the student's ``compute3D_pts(im1, im2, F, x1, y1, C1, C2)`` when it

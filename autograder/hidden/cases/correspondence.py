@@ -6,7 +6,10 @@ set their search ranges and windows in pixels on the official pair, whose matche
 along the line; at the smaller hidden scenes' own focal lengths the matches lie within a few
 pixels of (x1, y1), where a matcher that never leaves a +-10 px box, or searches the line F^T x1,
 finds them too.  Camera 2 is panned a little more than in the other scenes (``MATCH_TOE_DEG``), so
-that F x1 and F^T x1 part at the matches.
+that F x1 and F^T x1 part at the matches.  Q4.1 judges, in each, the points whose match neither
+slip can reach (solutions.matching_styles.scene_problem's ``slips``); Q4.2 judges matching temple
+2's structure on points spread over every depth.  Each draw renders these two temples besides the
+other questions' (about a second each at 320 x 240).
 
 Conventions: pixels (x, y) = (column, row); M = [R | t] world -> camera; C = K M.  Nothing here
 reaches a student.
@@ -60,7 +63,7 @@ class CorrespondenceCase:
 @dataclass(frozen=True, eq=False)
 class Correspondence:
     cases: tuple[CorrespondenceCase, ...]   # Q4.1's, one per scene
-    points_case: CorrespondenceCase        # Q4.2's: hidden scene 2 as the other questions see it
+    points_case: CorrespondenceCase        # Q4.2's: matching temple 2, its points over every depth
 
 
 def _correspondence_case(key, label, scene, count, rng, slips: bool = True) -> CorrespondenceCase:
@@ -97,14 +100,15 @@ def prepare_correspondence(scenes: Scenes) -> Correspondence:
     """The matching problems of the hidden matching temples (``matching_scenes``) and of the default
     data when ``scenes`` holds it (a draw made without it takes the batch's, ``combine_correspondence``)."""
     rng = np.random.default_rng(scenes.seed("matching"))
-    tcs = [*matching_scenes(scenes), *([scenes.default] if scenes.default else [])]
+    matching = matching_scenes(scenes)
+    tcs = [*matching, *([scenes.default] if scenes.default else [])]
     cases = tuple(_correspondence_case(f"scene{k}", tc.label, tc.scene, scenes.config.match_points, rng)
                   for k, tc in enumerate(tcs))
     if scenes.default is not None or not scenes.config.use_default_data:
         _check_labels(cases, scenes.config)
-    # Q4.2 judges the temple's structure: its points spread over every depth (no slips' band), on
-    # hidden scene 2 at its own focal length, where the relief is told from a flat temple.
-    tc = scenes.hidden[1]
+    # Q4.2 judges the temple's structure on matching temple 2: its points spread over every depth
+    # (not the slips' band of disparities, a band of depths), so the relief is told from a flat temple.
+    tc = matching[1]
     return Correspondence(cases, _correspondence_case("points", tc.label, tc.scene, scenes.config.match_points, rng,
                                                       slips=False))
 
