@@ -125,6 +125,17 @@ class Student(_Calls):
                                 swap=swap)
 
 
+_NO_LIMIT = 10**6  # seconds: the in-process stand-in times nothing
+
+
+class _Records(list):
+    """The records of an in-process call, each taken through JSON as the child's pipe takes them
+    (a NaN is refused alike)."""
+
+    def send(self, record: dict) -> None:
+        self.append(json.loads(json.dumps(record, allow_nan=False)))
+
+
 class LocalStudent(_Calls):
     """Stand-in for a sandbox session that calls Python functions of this process (tests of the
     checks themselves, on chosen functions; no time limits).  Values cross ``core.wire`` as they would."""
@@ -138,40 +149,28 @@ class LocalStudent(_Calls):
         """No child here: the functions are this process's own."""
 
     def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False, swap=None):
-        fn = self.functions.get(function)
-        from autograder.sandbox.child import refine_switch_for
-
-        with refine_switch_for(fn, swap) as run:
-            return self._map(fn, function, inputs, args, figure, run)
-
-    def _map(self, fn, function, inputs, args, figure, run=None):
-        """One outcome per input; ``run``: the refine switch's ``Switch`` when refineF is switched
-        off, whose calls during each input become that outcome's ``refineF_calls`` (as the child's)."""
+        """One outcome per input, made as the sandbox's child makes them (``child.call_request``,
+        read back by ``session.outcome_of``): the same copies of the arguments, refineF switch,
+        figure reading and encoding of the value; no time limits."""
         import numpy as np
 
         from autograder.sandbox import CallOutcome
-        from autograder.sandbox.child import copy_arguments, figures_points, figure_numbers
+        from autograder.sandbox.child import call_request
+        from autograder.sandbox.session import outcome_of
         from core import wire
 
+        fn = self.functions.get(function)
         if fn is None:
             return [CallOutcome("missing", message=f"{function} is not defined")] * len(inputs)
-        out = []
-        for a, k in inputs:
-            counted = run.calls if run is not None else 0
-            try:
-                before = figure_numbers() if figure else set()
-                value = fn(*copy_arguments(list(args), np), *copy_arguments(list(a), np), **copy_arguments(dict(k), np))
-                if figure:
-                    value = figures_points(value, before, np)
-                o = CallOutcome("ok", wire.decode(json.loads(json.dumps(wire.encode_returned(value)))))
-            except wire.Unsupported as exc:
-                o = CallOutcome("malformed", message=str(exc))
-            except Exception as exc:  # noqa: BLE001 - the function's failure is the outcome
-                o = CallOutcome("exception", message=f"{type(exc).__name__}: {exc}")
-            if run is not None:
-                o = dataclasses.replace(o, refineF_calls=run.calls - counted)
-            out.append(o)
-        return out
+        request = {"id": "here", "function": function, "args": wire.encode(tuple(args)),
+                   "inputs": [{"args": wire.encode(tuple(a)), "kwargs": wire.encode(dict(k))} for a, k in inputs],
+                   "seconds": _NO_LIMIT, "budget": _NO_LIMIT, "figure": figure, **({"swap": swap} if swap else {})}
+        records = _Records()
+        call_request(request, fn, records, set(), 2000, 2**40, wire, np, main_pid=os.getpid())
+        limits = wire.Limits(max_array_bytes=2**31, max_total_bytes=2**32)
+        got = {r["index"]: outcome_of(r, "wall", swap is not None, limits) for r in records if r.get("event") == "item"}
+        rest = CallOutcome("skipped", message=f"not run: {function} stopped on an earlier input")
+        return [got.get(k, rest) for k in range(len(inputs))]
 
     def call(self, function, *args, seconds=None, **kwargs):
         o = self.map(function, [(args, kwargs)])[0]

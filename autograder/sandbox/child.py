@@ -681,8 +681,13 @@ def _refine_calls(run):
     return min(max(n, 0), 2**31) if type(n) is int else 0
 
 
-def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
-    """Run one request: ``fn`` on each input within the request's time limits, one record per input."""
+def call_request(request, fn, channel, origins, limit, max_bytes, wire, np, *, main_pid=None):
+    """Run one request: ``fn`` on each input within the request's time limits, one record per input
+    sent on ``channel`` (anything with ``send(record)``).  The one call function: the child runs
+    every request with it, and the grader's in-process stand-in for tests of the checks
+    (``autograder.hidden.plugin.LocalStudent``) too, passing its own pid as ``main_pid`` (the
+    process whose records count; a process the code forked exits instead of reporting)."""
+    main_pid = _MAIN_PID if main_pid is None else main_pid
     rid = request["id"]
     seconds = float(request["seconds"])
     budget = float(request.get("budget") or seconds)
@@ -741,7 +746,7 @@ def _call(request, fn, channel, origins, limit, max_bytes, wire, np):
                 record.update(status="timeout", message=over)
             except BaseException:  # noqa: BLE001 - e.g. a message whose __str__ itself failed
                 record.update(status="exception", message="the code raised an exception that could not be described")
-            if os.getpid() != _MAIN_PID:
+            if os.getpid() != main_pid:
                 os._exit(0)  # a process the student forked must never report
             record["seconds"] = round(time.perf_counter() - t0, 6)
             if record["status"] == "ok":
@@ -827,7 +832,7 @@ def main(argv):
             leaks = _Leaks((fd, requests.fileno(), devnull), std, own_uid)
             grader.rid = rid
             try:
-                _call(request, fn, channel, origins, limit, max_bytes, wire, np)
+                call_request(request, fn, channel, origins, limit, max_bytes, wire, np)
             finally:
                 grader.rid = None
             lost = leaks.undo()

@@ -41,7 +41,7 @@ from .script import Runtime
 from .uids import (SHARED_TMP_DIRS, files_of_uid, held_open_files, live_pids_of_uid, pick_uid, release_uid,
                    remove_files_of_uid, sweep_uid, usage_of)
 
-__all__ = ["QUOTA_CHECK", "Session"]
+__all__ = ["QUOTA_CHECK", "Session", "outcome_of"]
 
 QUOTA_CHECK = 0.25     # seconds between two checks of a child's disk use, where no tmpfs bounds it
 _LEAK_RESTARTS = 5     # fresh children per session for calls that left threads running (child._Leaks)
@@ -409,20 +409,7 @@ class Session:
         return [found.get(k, rest) for k in range(n)]
 
     def _outcome(self, rec: dict, clock: str, swapped: bool = False) -> CallOutcome:
-        """One input's item record as a ``CallOutcome``; ``swapped``: the request switched refineF
-        off, so the record's ``refineF_calls`` is read (an int in [0, MAX_REFINE_CALLS], else None)."""
-        seconds = rec.get("seconds")
-        seconds = float(seconds) if type(seconds) in (int, float) and math.isfinite(seconds) else None
-        calls = rec.get("refineF_calls") if swapped else None
-        calls = calls if type(calls) is int and 0 <= calls <= MAX_REFINE_CALLS else None
-        if rec["status"] != "ok":
-            return CallOutcome(rec["status"], message=_short(rec.get("message")), seconds=seconds,
-                               stopped_by=clock if rec["status"] == "timeout" else None, refineF_calls=calls)
-        try:
-            value = wire.decode(rec.get("value"), self.wire_limits)
-        except wire.WireError as exc:
-            return CallOutcome("malformed", message=f"the returned value is not plain data ({exc})", seconds=seconds)
-        return CallOutcome("ok", value=value, seconds=seconds, refineF_calls=calls)
+        return outcome_of(rec, clock, swapped, self.wire_limits)
 
     def _pump(self, until, on_record, done) -> bool | str:
         """Write the pending request and read records until ``done()``: True, or why not
@@ -658,3 +645,22 @@ def _kill_tree(proc: subprocess.Popen) -> None:
         proc.wait(timeout=10)
     except subprocess.TimeoutExpired:
         pass
+
+
+def outcome_of(rec: dict, clock: str, swapped: bool, limits: wire.Limits) -> CallOutcome:
+    """One input's item record (``child.call_request``'s) as a ``CallOutcome``, its value decoded
+    within ``limits``; ``swapped``: the request switched refineF off, so the record's
+    ``refineF_calls`` is read (an int in [0, MAX_REFINE_CALLS], else None).  The in-process
+    stand-in of the checks' tests reads its records here too."""
+    seconds = rec.get("seconds")
+    seconds = float(seconds) if type(seconds) in (int, float) and math.isfinite(seconds) else None
+    calls = rec.get("refineF_calls") if swapped else None
+    calls = calls if type(calls) is int and 0 <= calls <= MAX_REFINE_CALLS else None
+    if rec["status"] != "ok":
+        return CallOutcome(rec["status"], message=_short(rec.get("message")), seconds=seconds,
+                           stopped_by=clock if rec["status"] == "timeout" else None, refineF_calls=calls)
+    try:
+        value = wire.decode(rec.get("value"), limits)
+    except wire.WireError as exc:
+        return CallOutcome("malformed", message=f"the returned value is not plain data ({exc})", seconds=seconds)
+    return CallOutcome("ok", value=value, seconds=seconds, refineF_calls=calls)
