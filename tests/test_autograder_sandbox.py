@@ -29,6 +29,8 @@ from core import wire
 from autograder.submission import parse_cells
 from core.paths import KIT_ROOT
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 LIMITS = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
 
 
