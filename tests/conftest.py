@@ -102,21 +102,11 @@ def two_view(rng):
 
 # The test tiers.  ``python -m pytest -m "not slow"`` is the fast tier a maintainer runs (about a
 # minute: pure functions, the scenes, the notebooks' build, the self-checks' verdicts); CI runs
-# everything.  Besides the tests marked slow one by one, every test of these files is the full
-# tier's: each starts sandboxes, grading workers, kernels or a browser, or builds hidden draws.
-FULL_TIER_FILES = frozenset({
-    "test_autograder_grading.py", "test_autograder_sandbox.py", "test_call_conventions.py",
-    "test_fail_closed.py", "test_feedback_calls.py", "test_figures.py", "test_gradescope.py",
-    "test_hidden_draws.py", "test_instructor_recipe.py", "test_leftovers.py", "test_matching_easy_points.py",
-    "test_nbgrader_course.py", "test_pdf.py", "test_refine_switch.py", "test_sandbox_leaks.py",
-    "test_twisted_pair.py",
-})
+# everything.  A test that starts sandboxes, grading workers, kernels or a browser, or builds
+# hidden draws, is marked ``slow``: one by one, or a whole file by its ``pytestmark``.
 
 
 def pytest_collection_modifyitems(config, items):
-    for item in items:
-        if item.path.name in FULL_TIER_FILES:
-            item.add_marker(pytest.mark.slow)
     if hasattr(config, "workerinput"):  # a pytest-xdist process: every one sorts alike
         _costliest_first(items)
 

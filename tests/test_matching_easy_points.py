@@ -23,6 +23,8 @@ from judging import correspondence as jc
 
 import realstyles.snippets
 
+pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
+
 SECRETS = ("easy-points-a", "easy-points-b")
 
 
