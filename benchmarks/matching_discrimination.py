@@ -30,9 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # benchmarks/core.py must not hide core/
-sys.path.insert(1, str(ROOT / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/core.py must not hide core/
+from core.paths import KIT_ROOT  # noqa: E402
+
+sys.path.insert(1, str(KIT_ROOT / "tests"))
 
 from autograder.config import quick_config  # noqa: E402
 from judging import correspondence as jc  # noqa: E402
