@@ -185,9 +185,12 @@ class _Signals:
             signal.signal(signum, old)
 
     def stoppable(self, step: Callable):
-        """``step()``; the first signal while it runs raises ``_SetUpCancelled`` in it."""
+        """``step()``; the first signal while it runs raises ``_SetUpCancelled`` in it, and one that
+        came just before (between two steps) stops it before it starts."""
         self.raising = True
         try:
+            if self.cancel.is_set():  # the handler ran while nothing could be stopped: stop here
+                raise _SetUpCancelled()
             return step()
         finally:
             self.raising = False

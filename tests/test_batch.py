@@ -526,3 +526,19 @@ def test_ctrl_c_during_set_up_stops_at_once_recording_nothing(tmp_path, config_f
     _, err = again.communicate(timeout=300)
     assert again.returncode == 0, err[-2000:]
     assert {r[0]: r[1] for r in gradebook(out)} == {n: "90" for n in names}
+
+
+def test_a_signal_between_two_set_up_steps_stops_the_next_before_it_starts():
+    # Ctrl-C that lands after the configuration is written and before the hidden inputs are made
+    # (no step running to raise in) must not let that step run for its seconds first.
+    import threading
+
+    from autograder.batch import _SetUpCancelled, _Signals
+
+    ran = []
+    signals = _Signals(threading.Event(), hard_exit=lambda: ran.append("hard exit"))
+    assert signals.stoppable(lambda: ran.append("first") or 1) == 1
+    signals._on_signal(signal.SIGINT, None)  # between steps: nothing to raise in
+    with pytest.raises(_SetUpCancelled):
+        signals.stoppable(lambda: ran.append("second"))
+    assert ran == ["first"] and not signals.raising

@@ -158,7 +158,7 @@ def test_cli_registers_the_nbgrader_commands():
     args = build_parser().parse_args(["nbgrader", "--out", "course", "--notebooks", "q2_eightpoint", "--selftest"])
     assert args.func is nc._cli and args.notebooks == ["q2_eightpoint"] and args.selftest and not args.force
     args = build_parser().parse_args(["nbgrader-grade", "course", "--student", "s1", "s2"])
-    assert args.func is nc._grade_cli and args.assignment == "hw4" and args.student == ["s1", "s2"]
+    assert args.func is nc.grade_cli and args.assignment == "hw4" and args.student == ["s1", "s2"]
     assert not args.no_pictures and build_parser().parse_args(["nbgrader-grade", "course", "--no-pictures"]).no_pictures
 
 
@@ -179,7 +179,7 @@ def test_scoring_needs_the_courses_own_secret_and_a_gradebook(tmp_path, monkeypa
     monkeypatch.delenv("HW4_GRADER_CONFIG", raising=False)
     args = build_parser().parse_args(["nbgrader-grade", str(tmp_path)])
     with pytest.raises(ValueError, match="development secret"):
-        nc._grade_cli(args)
+        nc.grade_cli(args)
     with pytest.raises(ValueError, match="gradebook"):
         nc.grade_course(tmp_path, config=quick_config())
 
@@ -363,7 +363,7 @@ def test_nbgrader_end_to_end_with_a_tampering_student(tmp_path, grading_settings
         assert {q: by_id[q] for q in qids} == nc.kit_scores(course, student)
     hidden = {k: v for k, v in nc.autograded_scores(course, "a-key").items() if k.startswith("hidden_")}
     for grade_id, (score, max_score) in hidden.items():
-        q = nc._question_of_grade_id(grade_id)
+        q = nc.question_of_grade_id(grade_id)
         assert max_score == (0 if q.extra_credit else q.points) and score == q.points
 
     nc.run_nbgrader(course, "generate_feedback", "hw4", "--force")
