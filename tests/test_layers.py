@@ -77,20 +77,23 @@ def module_name(path: Path) -> str:
     return ".".join(parts)
 
 
-def imports_of(path: Path) -> list[tuple[int, str]]:
-    """(line, imported dotted name) for every import in the file, relative ones resolved."""
+def imported_from(path: Path, node: ast.ImportFrom) -> str:
+    """The dotted module a ``from ... import`` in ``path`` reads from, a relative one resolved."""
     mod = module_name(path)
     package = mod.split(".") if path.name == "__init__.py" else mod.split(".")[:-1]
+    if not node.level:
+        return node.module or ""
+    return ".".join(package[: len(package) - node.level + 1] + ([node.module] if node.module else []))
+
+
+def imports_of(path: Path) -> list[tuple[int, str]]:
+    """(line, imported dotted name) for every import in the file, relative ones resolved."""
     found = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
         if isinstance(node, ast.Import):
             found += [(node.lineno, a.name) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package[: len(package) - node.level + 1]
-                target = ".".join(base + ([node.module] if node.module else []))
-            else:
-                target = node.module or ""
+            target = imported_from(path, node)
             # "from pkg import mod" may name a submodule: count the most specific name.
             found += [(node.lineno, f"{target}.{a.name}" if a.name != "*" else target) for a in node.names]
         elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
@@ -218,12 +221,10 @@ def private_imports(paths) -> list[str]:
     bad = []
     for path in paths:
         mod = module_name(path)
-        package = mod.split(".") if path.name == "__init__.py" else mod.split(".")[:-1]
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
             if not isinstance(node, ast.ImportFrom):
                 continue
-            target = ".".join(package[: len(package) - node.level + 1] + ([node.module] if node.module else [])) \
-                if node.level else (node.module or "")
+            target = imported_from(path, node)
             for a in node.names:
                 if a.name.startswith("_") and not a.name.startswith("__") and target != mod:
                     bad.append(f"{path.relative_to(KIT_ROOT)}:{node.lineno}: {target} imports {a.name}")

@@ -383,21 +383,26 @@ class _Leaks:
             lost.append("threads it started are still running")
         # A process the call started and left (a fork bomb's copies, a daemon, an unreaped child)
         # holds places under the process limit that the next question's code would miss.
-        end = time.monotonic() + 0.5
-        while self.last_pid is None or _last_pid() != self.last_pid:
-            left = _processes(self.own_uid) - self.processes
-            for pid in left:
-                try:
-                    os.waitpid(pid, os.WNOHANG)  # its own unreaped children are ended, not running
-                except OSError:
-                    pass
-            left = _processes(self.own_uid) - self.processes if left else left
-            if not left or time.monotonic() >= end:
-                if left:
-                    lost.append(f"{len(left)} processes it started outlived the call")
-                break
-            time.sleep(0.01)
+        if self.last_pid is None or _last_pid() != self.last_pid:  # else nothing was started
+            end = time.monotonic() + 0.5
+            left = self._reap_new()
+            while left and time.monotonic() < end:
+                time.sleep(0.01)
+                left = self._reap_new()
+            if left:
+                lost.append(f"{len(left)} processes it started outlived the call")
         return lost
+
+    def _reap_new(self) -> set:
+        """The processes started since the request began that are still there, after reaping
+        those of them that are this process's ended children."""
+        new = _processes(self.own_uid) - self.processes
+        for pid in new:
+            try:
+                os.waitpid(pid, os.WNOHANG)
+            except OSError:
+                pass
+        return _processes(self.own_uid) - self.processes if new else new
 
 
 def _last_pid():
