@@ -431,25 +431,38 @@ def test_keyrings_memfd_and_namespaces_are_refused_at_every_level(box):
     assert value["thread"] and value["subprocess"] and value["pool"], value
 
 
-def test_no_staff_path_in_the_namespaces_command_line_or_mount_table(tmp_path):
+def test_no_staff_path_in_the_namespaces_command_line_root_or_mount_table():
     """The namespace's first process runs its staging script from a file, so /proc/1/cmdline names
-    no hidden path; a hidden folder under the private /tmp gets no mount of its own, so the mount
-    table does not name it either."""
-    staff = tmp_path / "grades-of-section-B"
-    staff.mkdir()
-    src = ("def look():\n    out = {}\n    for name in ('/proc/1/cmdline', '/proc/self/mountinfo'):\n"
+    no hidden path; the code's root holds only the system's folders, this Python's and its own, so
+    a staff folder outside /tmp (here beside the kit's own files) is neither reachable nor named in
+    the mount table, and neither is the sandbox's folder that the lib is copied from."""
+    out = KIT_ROOT / "out"
+    out.mkdir(exist_ok=True)
+    staff = Path(tempfile.mkdtemp(prefix="grades-of-section-B-", dir=out))
+    src = ("import os\ndef look(kit):\n    out = {}\n    for name in ('/proc/1/cmdline', '/proc/self/mountinfo'):\n"
            "        try:\n            out[name] = open(name, 'rb').read().decode(errors='replace')\n"
-           "        except OSError as exc:\n            out[name] = repr(exc)\n    return out\n")
-    with Sandbox(KIT_ROOT, hidden=[staff], limits=LIMITS) as sandbox:
-        if not sandbox.isolation.level.endswith("namespaces"):
-            pytest.skip(f"no namespaces at isolation level {sandbox.isolation.level}")
-        seen = run(sandbox, src, Call("l", "look"))["l"]
-        hidden = [str(p) for p in sandbox.runtime.hidden]
+           "        except OSError as exc:\n            out[name] = repr(exc)\n"
+           "    out['kit'] = sorted(os.listdir(kit)) if os.path.isdir(kit) else []\n"
+           "    out['root'] = sorted(os.listdir('/'))\n    return out\n")
+    try:
+        with Sandbox(KIT_ROOT, hidden=[staff], limits=LIMITS) as sandbox:
+            if not sandbox.isolation.level.endswith("namespaces"):
+                pytest.skip(f"no namespaces at isolation level {sandbox.isolation.level}")
+            seen = run(sandbox, src, Call("l", "look", (str(KIT_ROOT),)))["l"]
+            hidden = [str(p) for p in sandbox.runtime.hidden]
+            base = str(sandbox.runtime.lib.parent)
+    finally:
+        shutil.rmtree(staff)
     assert seen.status == "ok", seen.message
     cmdline, mounts = seen.value["/proc/1/cmdline"], seen.value["/proc/self/mountinfo"]
     assert "sh" in cmdline and "mount" not in cmdline
     assert [h for h in hidden if h in cmdline] == []
-    assert str(staff) in hidden and str(staff) not in mounts and "grades-of-section-B" not in mounts
+    assert str(staff) in hidden and "grades-of-section-B" not in mounts
+    assert base not in mounts
+    # Of the kit's folder, only a Python installed inside it (a .venv) can be in the root.
+    python_dirs = {Path(sys.prefix).resolve(), Path(sys.base_prefix).resolve()}
+    assert [n for n in seen.value["kit"] if (KIT_ROOT / n).resolve() not in python_dirs] == []
+    assert "home" not in seen.value["root"] and "run" not in seen.value["root"]
 
 
 def test_a_whole_map_of_large_returns_is_bounded_in_the_grader(box):

@@ -283,6 +283,43 @@ def test_container_runs_hostile_code_as_its_own_uid_and_hides_the_graders_files(
     assert sum(got["kills_parent"].values()) == 0
 
 
+# Lists every folder above the staff folder given (and the kit's root), as the sandbox's uid.
+LISTS_PARENTS = textwrap.dedent("""\
+    import json, os, sys
+    from autograder.sandbox import Sandbox
+    src = ("import os\\ndef look(paths):\\n    out = {}\\n    for p in paths:\\n        try:\\n"
+           "            out[p] = os.listdir(p)\\n        except OSError as exc:\\n            out[p] = exc.errno\\n"
+           "    import numpy\\n    return out\\n")
+    staff = sys.argv[1]
+    above = [os.path.dirname(staff), os.path.dirname(os.path.dirname(staff)), sys.argv[2]]
+    with Sandbox(hidden=[staff], isolation="uid") as box, box.session(src, budget=60) as session:
+        got = session.call("look", above, seconds=30)
+    print("RESULT " + json.dumps({"status": got.status, "message": got.message, "value": got.value,
+                                  "above": above}))
+""")
+
+
+def test_uid_level_hides_the_names_of_hidden_paths_from_their_folders_listings(tmp_path, public_python, public_root):
+    """Denied by an ACL, a hidden path was still named by its folder's listing: every folder above
+    a hidden path (but the root and the Python's own) is pass-through only for the sandbox."""
+    course = public_root / "course-of-fall"
+    staff = course / "grades-of-section-B"
+    staff.mkdir(parents=True)
+    (course / "notes-for-tas.txt").write_text("x")
+    for p in (course, staff):
+        os.chmod(p, 0o755)
+    script = tmp_path / "lists.py"
+    script.write_text(LISTS_PARENTS)
+    os.chmod(tmp_path, 0o700)
+    got = parse(run(in_container([str(public_python), str(script), str(staff), str(KIT_ROOT)]), timeout=300))
+    assert got["status"] == "ok", got["message"]
+    seen = got["value"]
+    assert seen[str(course)] == 13 and seen[str(public_root)] == 13, seen   # EACCES
+    assert seen[str(KIT_ROOT)] == 13, seen   # it holds solutions/ and the other hidden folders
+    # The grader and every other user list them as before.
+    assert "grades-of-section-B" in os.listdir(course)
+
+
 @pytest.mark.slow
 def test_canary_refuses_a_sandbox_that_cannot_import_a_package(tmp_path, public_root):
     # The issue's silent class of zeros: the sandbox's user could not read the environment

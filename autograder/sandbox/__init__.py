@@ -10,10 +10,11 @@ student who patches ``numpy.allclose`` or ``builtins`` only changes the child.
 Isolation, strongest available first (``Sandbox.isolation`` says which was used; ``levels.py``):
 
 ``namespaces`` (the grader runs as root, util-linux ``unshare``/``setpriv`` work)
-    New pid, mount, network, ipc and uts namespaces.  Inside, still as root: an empty read-only
-    tmpfs over every hidden path (solutions/, autograder/, the output folder, the course data...),
-    a private /tmp, /var/tmp and /dev/shm, and the Python installation made reachable if it sits
-    under a private folder such as /root.  Then ``setpriv`` drops to a uid of its own (no groups,
+    New pid, mount, network, ipc and uts namespaces.  Inside, still as root, a root of the code's
+    own (``script.stage_script``): the system's folders and the Python installation bound
+    read-only (reachable even under a private folder such as /root), a copy of the lib, a private
+    /tmp, /var/tmp and /dev/shm, and nothing else of the machine's tree, so no hidden path
+    (solutions/, autograder/, the output folder, the course data...) is there to be named.  Then ``setpriv`` drops to a uid of its own (no groups,
     no capabilities, no new privileges) and starts Python.  The namespace's first process stays a
     root shell that waits for Python, so killing the sandbox kills the whole namespace, daemons
     included; a sweep of /proc for the sandbox's uid is the backstop (``uids.py``).
@@ -28,7 +29,8 @@ Isolation, strongest available first (``Sandbox.isolation`` says which was used;
     namespace: the child refuses sockets (internet and Unix alike) and System V / POSIX IPC
     objects itself with a seccomp filter installed before any student code
     (``child.deny_internet``; no capability needed, checked by the probe); files any user may read
-    stay readable (the grader writes its own files owner-only).  No private /tmp either: the
+    stay readable (the grader writes its own files owner-only); the folders above a hidden path
+    are pass-through only for that group, so no listing names one.  No private /tmp either: the
     sandbox's group may only pass through /tmp, /var/tmp and /run/lock (``deny.traverse_only``),
     /dev/shm stays writable, every child's files there are removed after it (``uids``), and its
     disk use is a quota the session checks while calls run (files its processes hold open
@@ -124,7 +126,8 @@ class Sandbox:
         Accept a weak level (``WEAK_LEVELS``: the code keeps the grader's uid or can read its
         files) when nothing stronger works; the result's ``Isolation.weak`` then says so.
     private_tmp : bool
-        Give the code its own empty /tmp, /var/tmp and /dev/shm (namespace levels only).
+        Give the code a root of its own with empty /tmp, /var/tmp and /dev/shm (namespace levels
+        only).  Without it the code sees the host's tree with each hidden path covered.
     uid : int, optional
         The uid to run as when root (default: an unused one from 60000 up).
     """

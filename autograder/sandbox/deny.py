@@ -106,7 +106,8 @@ def traverse_only(paths, gid: int = SANDBOX_GID) -> list[str]:
 
     For the machine's shared temporary folders (/tmp, /var/tmp, /run/lock) at the ``uid`` level:
     two sandboxes graded at once cannot leave each other files there, while the paths below them
-    (the sandbox's scratch, a Python under /var/tmp) stay reachable.  Nobody else's access
+    (the sandbox's scratch, a Python under /var/tmp) stay reachable.  For the folders above a
+    hidden path: their listings would name it.  Nobody else's access
     changes.  Never falls back to changing the mode bits (that would take /tmp from every user):
     a folder whose filesystem has no ACLs stays as it was, and the notes say so.
     """
@@ -118,5 +119,5 @@ def traverse_only(paths, gid: int = SANDBOX_GID) -> list[str]:
         try:
             _deny_acl(p, gid, perm=1)
         except OSError as exc:
-            notes.append(f"{p} stays writable to the sandbox ({exc.strerror or exc})")
+            notes.append(f"{p} stays listable and writable as before for the sandbox ({exc.strerror or exc})")
     return notes

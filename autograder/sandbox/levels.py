@@ -35,7 +35,7 @@ from .model import LEVELS, WEAK_LEVELS, Isolation, IsolationRefused, ResourceLim
 from .script import Runtime
 from .uids import claim_uid, pick_uid, release_uid, remove_files_of_uid, sweep_uid
 
-__all__ = ["SHARED_TMP_DIRS_NO_WRITE", "choose", "isolation_of", "python_fix"]
+__all__ = ["SHARED_TMP_DIRS_NO_WRITE", "choose", "isolation_of", "listed_parents", "python_fix"]
 
 # The shared temporary folders the code may only pass through at the ``uid`` level (/dev/shm stays
 # writable: multiprocessing makes its semaphores there).
@@ -151,6 +151,23 @@ def choose(requested: str, *, lib: Path, hidden: tuple[Path, ...], private_tmp: 
     raise IsolationRefused(head + ": " + "; ".join(notes))
 
 
+def listed_parents(hidden) -> list[Path]:
+    """The folders whose listing would name a hidden path at the ``uid`` level: every folder
+    above one, but the root, the shared temporary folders (already pass-through), and the folders
+    Python lists to import from: this Python's, and a package's (an editable install of the kit
+    imports ``starter`` from the kit's own folder)."""
+    pythons = [p.resolve() for p in script.python_dirs()]
+    out: set[Path] = set()
+    for p in hidden:
+        for folder in Path(os.path.abspath(p)).parents:
+            if folder == Path("/") or str(folder) in SHARED_TMP_DIRS_NO_WRITE:
+                continue
+            if any(folder == q or q in folder.parents for q in pythons) or (folder / "__init__.py").is_file():
+                continue
+            out.add(folder)
+    return sorted(out)
+
+
 def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
     """(None, (runtime, uid fd)) when ``level`` works, else (the reason, None)."""
     root = os.geteuid() == 0
@@ -175,6 +192,9 @@ def _try_level(level, uid, lib, hidden, private_tmp, limits, scratch, notes):
             # No namespace gives the code a /tmp of its own: it may not write into the shared ones
             # (two sandboxes of a --jobs batch would meet there); its temporary folders are in its scratch.
             notes.extend(traverse_only(SHARED_TMP_DIRS_NO_WRITE, SANDBOX_GID))
+            # Denied, a hidden path is still named by its folder's listing: those folders are
+            # passed through, not listed (never a folder Python lists to import from).
+            notes.extend(traverse_only(listed_parents(hidden), SANDBOX_GID))
         except OSError as exc:
             return (f"the hidden paths could not be made unreadable to the sandbox's group ({exc}); run the "
                     f"grader as the owner of its files, on a writable filesystem"), None

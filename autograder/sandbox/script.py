@@ -21,8 +21,8 @@ from core.paths import RESULT_FOLDERS
 from .model import ResourceLimits
 from .uids import SHARED_TMP_DIRS, count_processes
 
-__all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "RESULT_DIRS", "SCRATCH_DIRS", "Runtime", "command", "env", "make_workdir", "popen_options",
-           "python_dirs_in_private_tmp", "unreachable_python_dirs"]
+__all__ = ["MPL_CACHE", "PRIVATE_TMP_DIRS", "RESULT_DIRS", "SCRATCH_DIRS", "SYSTEM_DIRS", "Runtime", "command", "env",
+           "make_workdir", "popen_options", "python_dirs", "unreachable_python_dirs"]
 
 MPL_CACHE = "mplconfig"
 PRIVATE_TMP_DIRS = ("/tmp", "/var/tmp", "/dev/shm")
@@ -64,12 +64,11 @@ class Runtime:
 
     def shared_tmp_dirs(self) -> tuple[str, ...]:
         """The machine's shared temporary folders (``uids.SHARED_TMP_DIRS``) the code can leave
-        files in: all of them, but those its own tmpfs covers (``PRIVATE_TMP_DIRS``, at the
-        namespace levels with a private /tmp), which vanish with the namespace."""
-        if not (self.namespaced and self.private_tmp):
-            return SHARED_TMP_DIRS
-        private = {os.path.realpath(d) for d in PRIVATE_TMP_DIRS if os.path.isdir(d)}
-        return tuple(d for d in SHARED_TMP_DIRS if os.path.realpath(d) not in private)
+        files in: all of them, but none at the namespace levels with a private root
+        (``stage_script``), whose tree holds no folder of the host's but read-only ones."""
+        if self.namespaced and self.private_tmp:
+            return ()
+        return SHARED_TMP_DIRS
 
     def lib_inside(self) -> Path:
         """Where the lib folder is seen from inside the sandbox."""
@@ -84,7 +83,7 @@ class Runtime:
 # the Python installation
 
 
-def _python_dirs() -> set[Path]:
+def python_dirs() -> set[Path]:
     """The outermost folders this Python (its prefix, a virtual environment, site-packages) lives in."""
     wanted = {Path(sys.base_prefix), Path(sys.prefix), Path(os.path.realpath(sys.executable)).parent}
     try:
@@ -95,12 +94,6 @@ def _python_dirs() -> set[Path]:
     return {p for p in wanted if not any(q != p and q in p.parents for q in wanted)}
 
 
-def python_dirs_in_private_tmp() -> list[Path]:
-    """Python folders that the private /tmp would cover (a virtual environment made under /tmp, say)."""
-    return sorted(p for p in _python_dirs()
-                  if any(Path(d) in p.parents for d in PRIVATE_TMP_DIRS if os.path.isdir(d)))
-
-
 def unreachable_python_dirs() -> dict[Path, list[Path]]:
     """Folders of this Python that another uid cannot reach, grouped by the top folder blocking them.
 
@@ -108,7 +101,7 @@ def unreachable_python_dirs() -> dict[Path, list[Path]]:
     top folder with a tmpfs and binds these folders back at the same paths, read-only.
     """
     out: dict[Path, list[Path]] = {}
-    for p in sorted(_python_dirs()):
+    for p in sorted(python_dirs()):
         for anc in reversed(p.parents):
             if anc == Path("/"):
                 continue
@@ -247,75 +240,13 @@ def command(rt: Runtime, workdir: Path, program: list[str], jobdir: Path) -> lis
 def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
     """The root shell that prepares the namespace, then runs ``program`` without exec."""
     q = shlex.quote
-    # The folders this script makes (mount points such as a venv's parents on the private /tmp)
-    # must be traversable by the sandbox's uid whatever umask the grader runs with (077).
+    # The folders this script makes (mount points, the scratch area) must be traversable by the
+    # sandbox's uid whatever umask the grader runs with (077).
     lines = ["set -e", "umask 022"]
-    fd = 3
-    binds: list[tuple[int, Path]] = []
-
-    def keep(path: Path) -> int:
-        nonlocal fd
-        if fd > _STAGE_FD_MAX:
-            raise RuntimeError("too many folders to keep reachable in the sandbox")
-        lines.append(f"exec {fd}<{q(str(path))}")
-        binds.append((fd, path))
-        fd += 1
-        return fd - 1
-
-    lib_fd = keep(rt.lib) if rt.private_tmp else None
-    # A Python under /tmp (a virtual environment made there) must survive the private /tmp.
-    tmp_python = [(keep(p), p) for p in python_dirs_in_private_tmp()] if rt.private_tmp else []
-    reach = unreachable_python_dirs() if rt.uid is not None else {}
-    reach_fds = {top: [(keep(p), p) for p in paths] for top, paths in reach.items()}
-
     if rt.private_tmp:
-        for d in PRIVATE_TMP_DIRS:
-            if os.path.isdir(d):
-                lines.append(f"mount -t tmpfs -o nosuid,nodev,size={rt.limits.tmp_bytes},"
-                             f"nr_inodes={rt.limits.tmp_files},mode=1777 tmpfs {d}")
-    for kfd, p in tmp_python:
-        lines.append(f"mkdir -p {q(str(p))}")
-        lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{kfd} {q(str(p))}")
-        lines.append(f"mount -o remount,bind,ro {q(str(p))}")
-    for top, kept in reach_fds.items():
-        lines.append(f"mount -t tmpfs -o nosuid,nodev,size=64k,mode=0755 tmpfs {q(str(top))}")
-        for kfd, p in kept:
-            lines.append(f"mkdir -p {q(str(p))}")
-            lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{kfd} {q(str(p))}")
-            lines.append(f"mount -o remount,bind,ro {q(str(p))}")
-    # The hidden paths are covered last, on the tree as the code will see it: a path under a folder
-    # replaced by an empty tmpfs (the private /tmp, a private folder holding Python) is already gone
-    # and gets no mount, whose mount point would name it in /proc/self/mountinfo; one inside a
-    # folder bound back (a virtual environment under /tmp) is covered on the bound copy, which a
-    # plain bind does not carry over from the original.
-    covered = [Path(d).resolve() for d in PRIVATE_TMP_DIRS if rt.private_tmp and os.path.isdir(d)]
-    covered += [Path(top).resolve() for top in reach_fds]
-    bound = [p.resolve() for _, p in tmp_python] + [p.resolve() for kept in reach_fds.values() for _, p in kept]
-    for p in rt.hidden:
-        if not os.path.lexists(p):
-            continue  # gone since the sandbox was made: nothing left to hide
-        if _within(p, covered) and not _within(p, bound):
-            continue
-        if p.is_dir():
-            lines.append(f"mount -t tmpfs -o ro,nosuid,nodev,noexec,size=4k,mode=0555 tmpfs {q(str(p))}")
-        else:
-            lines.append(f"mount --bind /dev/null {q(str(p))}")
-    if lib_fd is not None:
-        lib = rt.lib_inside()
-        lines.append(f"mkdir -p {q(str(lib))}")
-        lines.append(f"mount --no-canonicalize --bind /proc/self/fd/{lib_fd} {q(str(lib))}")
-        lines.append(f"mount -o remount,bind,ro {q(str(lib))}")
-        scratch = workdir.parent
-        lines.append(f"mkdir -p {q(str(workdir))}")
-        lines.append("mkdir -p " + " ".join(q(os.path.normpath(workdir / rel)) for rel in RESULT_DIRS + SCRATCH_DIRS))
-        if (rt.lib / MPL_CACHE).is_dir():
-            lines.append(f"cp -R {q(str(lib / MPL_CACHE))} {q(str(workdir / '.matplotlib'))}")
-        if rt.uid is not None:
-            lines.append(f"chown -R {rt.uid}:{rt.uid} {q(str(scratch))}")
-        lines.append(f"chmod 700 {q(str(scratch))} {q(str(workdir))} "
-                     + " ".join(q(os.path.normpath(workdir / rel)) for rel in SCRATCH_DIRS))
-    for kfd, _ in binds:
-        lines.append(f"exec {kfd}<&-")
+        lines += _private_root(rt, workdir)
+    else:
+        lines += _covered_host_tree(rt)
     lines.append(f"cd {q(str(workdir))}")
     lines.append("set +e")
     argv = [q(a) for a in program]
@@ -328,6 +259,118 @@ def stage_script(rt: Runtime, workdir: Path, program: list[str]) -> str:
     lines.append("rc=$?")
     lines.append("exit $rc")
     return "\n".join(lines)
+
+
+# What the code's own root holds from the machine, read-only: the programs and libraries, the
+# system's configuration (the dynamic linker's cache, locales, time zones).  Nothing else of the
+# host's tree is in it, so no staff folder is there to be listed or named in the mount table.
+SYSTEM_DIRS = ("/usr", "/etc", "/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32")
+_DEVICES = ("null", "zero", "full", "random", "urandom")
+
+
+def _private_root(rt: Runtime, workdir: Path) -> list[str]:
+    """Lines that build the code's own root and move into it (``pivot_root``).
+
+    The root is an empty tmpfs holding only: the system folders (``SYSTEM_DIRS``) and this
+    Python's folders, bound read-only at their own paths; a copy of the lib (never a bind, whose
+    source path the mount table would show); empty /tmp, /var/tmp and /dev/shm; the harmless
+    devices; a fresh /proc.  A hidden path is then simply absent, unless it lies inside a folder
+    bound in (a course's data under /usr, say), where it is covered as on the host's tree.
+    """
+    q = shlex.quote
+    new = "/tmp"   # the new root's mount point before the move: any folder will do, this one exists
+    lines: list[str] = []
+    kept: dict[Path, str] = {}
+    fd = 3
+
+    def keep(path: Path) -> str:
+        """An open descriptor on ``path``, taken before the new root covers /tmp."""
+        nonlocal fd
+        if fd > _STAGE_FD_MAX:
+            raise RuntimeError("too many folders to keep reachable in the sandbox")
+        lines.append(f"exec {fd}<{q(str(path))}")
+        kept[path] = f"/proc/self/fd/{fd}"
+        fd += 1
+        return kept[path]
+
+    lib_src = keep(rt.lib)
+    system = [d for d in SYSTEM_DIRS if os.path.lexists(d)]
+    pythons = [p for p in sorted(python_dirs()) if not _within(p, [Path(d).resolve() for d in system])]
+    sources = {p: keep(p) if _within(p, [Path("/tmp").resolve()]) else str(p) for p in pythons}
+
+    def into(path) -> str:
+        return q(new + str(path))
+
+    def bind_ro(src: str, path) -> None:
+        lines.append(f"mount --no-canonicalize --bind {q(src)} {into(path)}")
+        lines.append(f"mount -o remount,bind,ro {into(path)}")
+
+    lines.append(f"mount -t tmpfs -o nosuid,nodev,size=16m,mode=0755 tmpfs {new}")
+    for d in system:
+        if os.path.islink(d):
+            lines.append(f"ln -s {q(os.readlink(d))} {into(d)}")
+        elif os.path.isdir(d):
+            lines.append(f"mkdir {into(d)}")
+            bind_ro(d, d)
+    lines.append(f"mkdir -p {into('/proc')} {into('/dev')} {into('/var')}")
+    for d in PRIVATE_TMP_DIRS:
+        lines.append(f"mkdir -p {into(d)}")
+        lines.append(f"mount -t tmpfs -o nosuid,nodev,size={rt.limits.tmp_bytes},"
+                     f"nr_inodes={rt.limits.tmp_files},mode=1777 tmpfs {into(d)}")
+    for name in _DEVICES:
+        if os.path.exists(f"/dev/{name}"):
+            lines.append(f": > {into(f'/dev/{name}')}")
+            lines.append(f"mount --bind /dev/{name} {into(f'/dev/{name}')}")
+    lines.append(f"ln -s /proc/self/fd {into('/dev/fd')}")
+    for k, name in enumerate(("stdin", "stdout", "stderr")):
+        lines.append(f"ln -s /proc/self/fd/{k} {into(f'/dev/{name}')}")
+    for p, src in sources.items():
+        lines.append(f"mkdir -p {into(p)}")
+        bind_ro(src, p)
+    # Hidden paths inside a folder bound in are covered there; the others are not in the root.
+    inside = [Path(d).resolve() for d in system if not os.path.islink(d)] + [p.resolve() for p in pythons]
+    for p in rt.hidden:
+        if os.path.lexists(p) and _within(p.resolve(), inside):
+            if p.is_dir():
+                lines.append(f"mount -t tmpfs -o ro,nosuid,nodev,noexec,size=4k,mode=0555 tmpfs {into(p.resolve())}")
+            else:
+                lines.append(f"mount --bind /dev/null {into(p.resolve())}")
+    lib = rt.lib_inside()
+    lines.append(f"mkdir -p {into(lib)}")
+    lines.append(f"mount -t tmpfs -o nosuid,nodev,size=64m,mode=0755 tmpfs {into(lib)}")
+    lines.append(f"cp -R {q(lib_src)}/. {into(lib)}")
+    lines.append(f"mount -o remount,bind,ro,nosuid,nodev {into(lib)}")
+    scratch = workdir.parent
+    lines.append("mkdir -p " + " ".join(into(os.path.normpath(workdir / rel)) for rel in ("",) + RESULT_DIRS + SCRATCH_DIRS))
+    if (rt.lib / MPL_CACHE).is_dir():
+        lines.append(f"cp -R {into(lib / MPL_CACHE)} {into(workdir / '.matplotlib')}")
+    if rt.uid is not None:
+        lines.append(f"chown -R {rt.uid}:{rt.uid} {into(scratch)}")
+    lines.append(f"chmod 700 {into(scratch)} {into(workdir)} "
+                 + " ".join(into(os.path.normpath(workdir / rel)) for rel in SCRATCH_DIRS))
+    lines.append(f"mount -t proc -o nosuid,nodev,noexec proc {into('/proc')}")
+    for n in range(3, fd):
+        lines.append(f"exec {n}<&-")
+    # The move: the host's tree goes below the new root, then is detached whole.
+    pivot = shutil.which("pivot_root") or "/usr/sbin/pivot_root"
+    lines += [f"mkdir {into('/.host')}", f"cd {new}", f"{q(pivot)} . .host", "cd /",
+              "umount -l /.host", "rmdir /.host", "mount -o remount,bind,ro,nosuid,nodev /"]
+    return lines
+
+
+def _covered_host_tree(rt: Runtime) -> list[str]:
+    """Lines that leave the host's tree in place and cover each hidden path with an empty mount
+    (without a private /tmp: the mount table then names what it covers)."""
+    q = shlex.quote
+    lines: list[str] = []
+    for p in rt.hidden:
+        if not os.path.lexists(p):
+            continue  # gone since the sandbox was made: nothing left to hide
+        if p.is_dir():
+            lines.append(f"mount -t tmpfs -o ro,nosuid,nodev,noexec,size=4k,mode=0555 tmpfs {q(str(p))}")
+        else:
+            lines.append(f"mount --bind /dev/null {q(str(p))}")
+    return lines
 
 
 def _within(path: Path, folders: list[Path]) -> bool:
