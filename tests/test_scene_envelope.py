@@ -3,9 +3,10 @@
 Scenes: the default data's (scenes.defaults.default_temple), the public self-checks' (the generated
 temple and its K1 != K2 pair of starter/checks/_scenes.py), and the hidden draws of
 ``make_scenes`` under ``quick_config`` and the default ``GradingConfig`` for the secret sweep's
-secrets (CI's 2, the release sweep's 20: tests/breadth.py; their temples and the K1 != K2 pair
-the hidden Q3.1 and Q3.2 use).  Only what the checks need is made: the hidden draws without the
-default data (``fixed=False``), in two forked processes.
+secrets (CI's 2, the release sweep's 20: tests/breadth.py; their temples, the temples drawn for
+matching that Q4.1 and Q4.2 use, and the K1 != K2 pair the hidden Q3.1 and Q3.2 use).  Only what
+the checks need is made: the hidden draws without the default data (``fixed=False``), in two
+forked processes.
 
 Then the two hand-in habits that scenes outside the envelope failed: E / E[2, 2] (a public and a
 hidden Q3.1 input had E[2, 2] = 0 up to rounding) and a 101 x 101 matching window cut without
@@ -28,6 +29,7 @@ CONFIGS = {"quick_config": quick_config, "GradingConfig": GradingConfig}
 
 def _draw_problems(item) -> list[str]:
     """What of the hidden draw of (config name, secret) is outside the envelope (module level: forked)."""
+    from autograder.hidden.cases.correspondence import matching_scenes
     from autograder.hidden.scenes import make_scenes
 
     name, secret = item
@@ -37,6 +39,9 @@ def _draw_problems(item) -> list[str]:
     out = []
     for case, spec in zip(scenes.hidden, config.temples):
         out += envelope.outside_envelope(case.scene, noise_px=spec.noise_px, label=f"{where}, {case.label}")
+    # Q4.1 and Q4.2 are judged on temples of their own, drawn for matching.
+    for k, (case, spec) in enumerate(zip(matching_scenes(scenes), config.temples), start=1):
+        out += envelope.outside_envelope(case.scene, noise_px=spec.noise_px, label=f"{where}, matching temple {k}")
     tv = scenes.two_view
     out += envelope.pair_outside_envelope(tv.K1, tv.K2, tv.M2, f"{where}, the K1 != K2 pair")
     return out
@@ -174,7 +179,7 @@ def _windows_fit(im, xy) -> bool:
 
 
 def test_a_101px_window_fits_around_every_chosen_point_of_the_hidden_draws():
-    from autograder.hidden.cases.correspondence import prepare_correspondence
+    from autograder.hidden.cases.correspondence import matching_scenes, prepare_correspondence
     from autograder.hidden.scenes import make_scenes
 
     scenes = make_scenes(quick_config(secret=SECRETS[0]))
