@@ -235,14 +235,26 @@ def test_q31_far_lines_are_said_to_leave_the_image():
 
 @slow
 def test_q31_the_drawn_lines_are_the_implied_F(monkeypatch):
-    """The artists' own data: the lines drawn for a transposed E miss their dots by what is measured."""
+    """The artists' own data: the lines drawn for a transposed E miss their dots by what is measured,
+    and the red sticks show it."""
     from starter.checks.pictures import q3_essential
+    from starter.checks.pictures.picture import fmt
 
     figures = _captured(monkeypatch, q3_essential)
     p = picture("Q3.1", E_TRANSPOSED)
     d = _dots_to_drawn_lines(figures[-1])
     assert len(d) == 8 and d.max() > 5
     assert np.mean(d) == pytest.approx(p.measures["mean_distance_px"], rel=1e-6)
+    # and without a number to read, as Q2's: a red stick from every true match, MISS_MAGNIFY times its
+    # miss (tens of pixels here), on both rows; the first zoom goes to the farthest match
+    from starter.checks.pictures import q2_eightpoint as q2
+
+    temple, pair = figures[-1].axes[0], figures[-1].axes[1 + q2.N_ZOOMED]
+    assert len(_sticks(temple)) > q2.N_DRAWN and len(_sticks(pair)) > q2.N_DRAWN
+    assert _sticks(temple).max() == pytest.approx(q2.MISS_MAGNIFY * p.measures["largest_miss_px"], rel=1e-6)
+    assert _sticks(pair).max() == pytest.approx(q2.MISS_MAGNIFY * p.measures["k_differ_largest_miss_px"], rel=1e-6)
+    assert _sticks(temple).max() > 100 and _sticks(pair).max() > 100
+    assert figures[-1].axes[1].get_title() == fmt(p.measures["largest_miss_px"], "px")
 
 
 # ----------------------------------------------------------------------------- Q3.2

@@ -7,9 +7,11 @@ on the self-check's generated pair, whose intrinsics differ (K1 != K2, 640 x 480
 Trusted side (:func:`draw`): E is turned back into the F it implies, F_E = K2^-T E K1^-1 (3, 3,
 mapping a point x1 of image 1, pixels (x, y), to its line F_E x1 in image 2), and drawn as Q2's
 figure draws an F (q2_eightpoint.lines_row): image 2 with the lines of eight matches (solid), the
-true F's lines (dashed) and the true matches (dots), and a zoom around each dot.  A right E's lines
-pass through the dots.  A K missing or inverted misses them by far; a transposed E by a few pixels
-(visible in the zooms).  K1 and K2 swapped, or one camera's K used on both sides, give exactly the
+true F's lines (dashed) and the true matches (dots), from every true match a red stick towards its
+line, MISS_MAGNIFY times its distance, and zooms on the matches farthest from their lines.  A right
+E's lines pass through the dots and its sticks vanish.  A K missing or inverted misses them by far
+(sticks to the image's edge); a transposed E by a few pixels (sticks tens of pixels long, the line
+beside the dot in the zooms).  K1 and K2 swapped, or one camera's K used on both sides, give exactly the
 right E when K1 == K2, as on the temple: only the second row (K1 != K2) shows them.
 """
 
@@ -23,7 +25,7 @@ from .arrays import call, matrix3, maybe, need
 from .drawing import clip_line, line_distances
 from .picture import Picture, figure, fmt, to_picture
 from .public import need_truth, temple
-from .q2_eightpoint import N_DRAWN, ZOOM_PX, drawn_rows, lines_row
+from .q2_eightpoint import MISS_MAGNIFY, N_DRAWN, N_ZOOMED, ZOOM_PX, drawn_rows, lines_row
 
 __all__ = ["FUNCTIONS", "draw", "implied_F", "run"]
 
@@ -84,9 +86,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     """The Picture of Q3.1 from run()'s outputs (validated here): one row per E returned.
 
     measures: mean_distance_px, max_distance_px (the drawn true matches of the temple to the lines
-    of F_E), true_F_mean_distance_px, lines_in_image (of F_E crossing image 2), K1_equals_K2 (1 when the temple's K1 == K2:
+    of F_E), largest_miss_px (of all its true matches, the first zoom), true_F_mean_distance_px, lines_in_image (of F_E crossing image 2), K1_equals_K2 (1 when the temple's K1 == K2:
     swapped or repeated intrinsics cannot show there), and k_differ_mean_distance_px,
-    k_differ_max_distance_px, k_differ_true_F_mean_distance_px, k_differ_lines_in_image for the pair with K1 != K2 when it was run.
+    k_differ_max_distance_px, k_differ_largest_miss_px, k_differ_true_F_mean_distance_px, k_differ_lines_in_image for the pair with K1 != K2 when it was run.
     """
     Es = {"E": need(outputs, "E", (3, 3))}
     other = maybe(outputs, "E_K_differ", (3, 3))
@@ -99,7 +101,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     fig.clear()
     grid = fig.add_gridspec(2 * len(Es), 5, width_ratios=[3.2, 1, 1, 1, 1])
     measures: dict[str, float] = {"K1_equals_K2": float(same_k), "n_lines": float(N_DRAWN)}
-    parts = []
+    parts, parts_far = [], []
     for row, (key, E) in enumerate(Es.items()):
         label, prefix = _ROWS[key]
         holder, K1, K2, truth_F, p1, p2 = rows[key]
@@ -107,23 +109,32 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
             F = implied_F(E, K1, K2)
         picked = drawn_rows(p1, N_DRAWN)
         h1 = np.column_stack([p1[picked], np.ones(len(picked))])
-        big, dist = lines_row(fig, grid, row, holder, f"your E's lines, {label}", F, truth_F, h1, p2[picked], ZOOM_PX)
+        every = (np.column_stack([p1, np.ones(len(p1))]), p2)
+        big, dist = lines_row(fig, grid, row, holder, f"your E's lines, {label}", F, truth_F, h1, p2[picked], ZOOM_PX,
+                              every)
         ok = bool(np.all(np.isfinite(dist)))
         mean = float(np.mean(dist)) if ok else float("inf")
+        far = line_distances(every[0] @ F.T, p2)
+        largest = float(np.max(far)) if np.all(np.isfinite(far)) else float("inf")
         measures[f"{prefix}mean_distance_px"] = mean
         measures[f"{prefix}max_distance_px"] = float(np.max(dist)) if ok else float("inf")
+        measures[f"{prefix}largest_miss_px"] = largest
         measures[f"{prefix}true_F_mean_distance_px"] = float(np.mean(line_distances(h1 @ truth_F.T, p2[picked])))
         h, w = holder.im2.shape[:2]
         measures[f"{prefix}lines_in_image"] = float(sum(clip_line(ln, w, h) is not None for ln in h1 @ F.T))
-        shown = int(measures[f"{prefix}lines_in_image"])
-        big.set_title(f"{label}: dots {fmt(mean, 'px')} from your lines"
-                      + ("" if shown == len(picked) else f"; {shown} of them in the image"), fontsize=9)
+        if row < len(Es) - 1:
+            big.tick_params(labelbottom=False)   # its x labels ran into the next row's title
+        # one line: a second would run into the zooms' row above (lines off the image: in the alt)
+        big.set_title(f"{label}: dots {fmt(mean, 'px')} from your lines, up to {fmt(largest, 'px')}", fontsize=9)
         parts.append(f"{label}: {fmt(mean, 'px')}")
+        parts_far.append(f"{label}: {fmt(largest, 'px')}")
     alt = (f"Image 2 with {N_DRAWN} epipolar lines of the F your E implies (K2^-T E K1^-1; solid, orange) and of the "
-           f"true F (dashed, blue) through the true matches (red dots), with a zoom of {ZOOM_PX} px around each dot, "
-           "for the temple and for the self-check's pair (drawn on a blank image 2 of 640 x 480). "
-           "Mean distance of the dots to your lines: "
+           f"true F (dashed, blue) through the true matches (red dots); a red stick from each true match towards its "
+           f"line, {MISS_MAGNIFY:g} times its distance; and zooms of at least {ZOOM_PX} px on the {N_ZOOMED} matches "
+           "farthest from their lines, the farthest framed in purple; for the temple and for the self-check's pair "
+           "(drawn on a blank image 2 of 640 x 480). Mean distance of the dots to your lines: "
            + "; ".join(parts)
+           + ". Largest distance of a true match to its line: " + "; ".join(parts_far)
            + f". {int(measures['lines_in_image'])} of your {N_DRAWN} lines cross the temple's image 2."
            + (" On the temple K1 == K2, so K1 and K2 swapped, or one K used on both sides, give the right E there; "
               "the pair with K1 != K2 shows them." if same_k else ""))
