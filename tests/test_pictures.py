@@ -667,10 +667,28 @@ def test_q2_rank3_is_said_on_the_figure(monkeypatch):
     from starter.checks.pictures import q2_eightpoint
 
     figures = _captured(monkeypatch, q2_eightpoint)
-    picture("Q2", V.EIGHTPOINT_RANK3)
+    p = picture("Q2", V.EIGHTPOINT_RANK3)
     assert "full rank" in figures[-1].axes[0].get_title()
+    # and drawn: the last zoom gives way to where the drawn lines cross, scattered over hundreds of
+    # pixels (a rank-2 F's cross in one point)
+    (dots,) = [a for ax in figures[-1].axes for a in ax.lines if a.get_gid() == "crossings"]
+    xy = np.column_stack([dots.get_xdata(), dots.get_ydata()])
+    assert len(xy) == 28 and np.ptp(xy[:, 1]) > 1000 and p.measures["crossings_spread_px"] > 100
+    _titles_stay_over_their_panels(figures[-1])
     picture("Q2")
     assert "full rank" not in figures[-1].axes[0].get_title()
+    assert not [a for ax in figures[-1].axes for a in ax.lines if a.get_gid() == "crossings"]
+    _titles_stay_over_their_panels(figures[-1])
+
+
+def _titles_stay_over_their_panels(fig):
+    """Each large panel's title ends left of the zooms beside it (it ran into the first zoom at 10 pt)."""
+    from starter.checks.pictures import q2_eightpoint as q2
+
+    renderer = fig.canvas.get_renderer()
+    for big in fig.axes[::1 + q2.N_ZOOMED]:
+        zoom = fig.axes[fig.axes.index(big) + 1]
+        assert big.title.get_window_extent(renderer).x1 < zoom.get_window_extent(renderer).x0
 
 
 @slow

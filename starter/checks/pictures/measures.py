@@ -28,7 +28,9 @@ _LINES = {
 _WORDS: dict[str, dict[str, tuple[str, str]]] = {
     "Q2": {**_LINES,
            "uint16_F_change": ("change of your F when the points are uint16 (0: the same up to scale)", ""),
-           "s3_over_s2": ("smallest over middle singular value of your F (0 when rank 2)", "")},
+           "s3_over_s2": ("smallest over middle singular value of your F (0 when rank 2)", ""),
+           "crossings_spread_px": ("spread of the points where your lines cross (0 when they meet in one epipole)",
+                                   "px")},
     "Q3.1": {**_LINES, "K1_equals_K2": ("the temple's K1 equals its K2 (1: yes, 0: no)", "")},
     "Q3.2": {"mean_reprojection_px_1": ("mean reprojection distance in image 1", "px"),
              "mean_reprojection_px_2": ("mean reprojection distance in image 2", "px"),

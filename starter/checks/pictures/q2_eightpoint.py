@@ -13,7 +13,8 @@ beside it, zooms on the eight matches farthest from their lines.  A right F's li
 the dots and its sticks vanish; a transposed F's (refineF switched off) miss by up to about twenty
 pixels on this near-vertical pencil (sticks a fifth of the image long, the first zoom with the line
 beside the dot); an unscaled one's by hundreds; a rank-3 F's lines pass near the dots but do not
-meet in one epipole (said in the row's title).
+meet in one epipole: said in the row's title, and its last zoom gives way to where the lines cross,
+far above the image (scattered crossings in a tangle of lines, not one point).
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ from .drawing import clip_line, image, line_distances
 from .picture import Picture, figure, fmt, to_picture
 from .public import NO_TRUTH, temple
 
-__all__ = ["FUNCTIONS", "MISS_MAGNIFY", "N_DRAWN", "N_ZOOMED", "ZOOM_MAX_PX", "ZOOM_PX", "draw", "drawn_rows",
-           "lines_row", "run"]
+__all__ = ["FUNCTIONS", "MISS_MAGNIFY", "N_DRAWN", "N_ZOOMED", "ZOOM_MAX_PX", "ZOOM_PX", "crossings", "draw",
+           "drawn_rows", "lines_row", "run"]
 
 FUNCTIONS = ("eightpoint",)
 N_DRAWN = 8
@@ -109,6 +110,56 @@ def _segments(ax, lines, w, h, **style) -> None:
         seg = clip_line(ln, w, h)
         if seg is not None:
             ax.plot(*seg, **style)
+
+
+def crossings(lines) -> np.ndarray:
+    """(k, 2) the finite points (x, y) where each pair of ``lines`` (n, 3) crosses: one point, repeated,
+    when they meet in one epipole (a rank-2 F); scattered when they do not (a full-rank F)."""
+    lines = np.asarray(lines, float)
+    i, j = np.triu_indices(len(lines), 1)
+    with np.errstate(all="ignore"):
+        x = np.cross(lines[i], lines[j])
+        pts = x[:, :2] / x[:, 2:]
+    return pts[np.all(np.isfinite(pts), axis=1)]
+
+
+def _crossings_panel(ax, lines, width: float, height: float) -> float:
+    """Draw ``lines`` (n, 3) where they cross, far outside image 2 (w x h) for this near-vertical pencil,
+    and their crossings (dots); return the spread of the crossings (px, 0 when they meet in one point).
+
+    The window is stretched along the pencil (aspect not equal): lines stay lines and a common point
+    stays one point, so a rank-2 F's lines form one clean bow tie and a full-rank F's a tangle."""
+    pts = crossings(lines)
+    if len(pts) == 0:
+        return float("inf")
+    c = np.median(pts, axis=0)
+    spread = float(np.percentile(np.hypot(*(pts - c).T), 90))
+    along = int(abs(c[1] - height / 2) < abs(c[0] - width / 2))    # 0: the pencil runs along y; 1: along x
+    reach = float(np.hypot(c[0] - width / 2, c[1] - height / 2))
+    half = max(0.1 * reach, 1.3 * spread, 1.0)
+    lo, hi = c[1 - along] - half, c[1 - along] + half
+    ends = []
+    for ln in lines:
+        a, b = (ln[0], ln[1]) if along == 0 else (ln[1], ln[0])    # the coordinate across the pencil at lo, hi
+        if abs(a) < 1e-300:
+            continue
+        across = [-(b * t + ln[2]) / a for t in (lo, hi)]
+        ends.append(across)
+        xy = (across, [lo, hi]) if along == 0 else ([lo, hi], across)
+        ax.plot(*xy, color="#ffb300", lw=0.8, gid="crossing_line")
+    ax.plot(pts[:, 0], pts[:, 1], "o", ms=4, mfc="#e53935", mec="none", gid="crossings")
+    if ends:
+        ends = np.asarray(ends)
+        pad = 0.05 * (ends.max() - ends.min() + 1.0)
+        (ax.set_xlim if along == 0 else ax.set_ylim)(ends.min() - pad, ends.max() + pad)
+    if along == 0:
+        ax.set_ylim(hi, lo)    # y down, as in the images
+    else:
+        ax.set_xlim(lo, hi)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_facecolor("#f5f5f5")
+    return spread
 
 
 def _misses(ax, lines, pts, magnify: float) -> None:
@@ -209,7 +260,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     uint16_F_change (0 when the uint16 points give the same F as the float ones, up to scale; about
     1 when unrelated), true_F_mean_distance_px (default data only), s3_over_s2 (of the F as
     returned, on points / M: about 0 when rank 2), n_lines, lines_in_image (of the F as returned: an
-    F that was not unscaled draws its lines outside image 2).
+    F that was not unscaled draws its lines outside image 2), crossings_spread_px (only when the F as
+    returned has full rank: how far apart its drawn lines cross, 90th percentile from their median
+    crossing; its last zoom then shows where they cross instead).
     """
     Fs = {"F": need(outputs, "F", (3, 3))}
     for key in ("F_refineF_off", "F_uint16"):
@@ -253,7 +306,14 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
             note += f"\ndiffers from the F of float points by {measures['uint16_F_change']:.3g}"
         if key == "F" and _s3_over_s2(F, d.M) > 1e-6:
             note += f"\nfull rank (s3/s2 = {_s3_over_s2(F, d.M):.2g}, not 0): no one epipole"
-        big.set_title(note, fontsize=10)
+            # the lines pass the dots but do not meet: the last zoom gives way to where they cross
+            fig.delaxes(fig.axes[-1])
+            cross = fig.add_subplot(grid[2 * row + 1, 4])
+            h, w = d.im2.shape[:2]
+            measures["crossings_spread_px"] = _crossings_panel(cross, h1 @ F.T, w, h)
+            cross.set_title("where they cross", fontsize=10, color="#c62828")
+        # 9 pt: at 10 the longest line ran past the panel into its first zoom
+        big.set_title(note, fontsize=9)
         parts.append(f"{_RUNS[key]}: {fmt(mean, 'px')}")
     if "F_uint16" in Fs and "F_uint16" not in drawn:
         measures["uint16_F_change"] = _change(Fs["F_uint16"], Fs["F"])
