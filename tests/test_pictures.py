@@ -706,8 +706,31 @@ def test_q5_scale_collapse_is_said_on_the_figure(monkeypatch):
     m = pictures.draw("Q5", pictures.public_outputs("Q5", {"bundleAdjustment": bundleAdjustment})).measures
     title = figures[-1].axes[1].get_title()
     assert f"x{m['t_ratio']:.3g}" in title and "shrunk" in title
+    # and without reading it: |t| returned, a bar beside |t| at the start, vanishes
+    start, yours = _scale_bars(figures[-1])
+    assert yours == pytest.approx(m["t_ratio"] * start, rel=1e-9) and yours < 0.01 * start
+    _title_below_the_figures(figures[-1])
     picture("Q5")
     assert "shrunk" not in figures[-1].axes[1].get_title()
+    start, yours = _scale_bars(figures[-1])
+    assert 0.5 * start < yours < 2 * start
+    _title_below_the_figures(figures[-1])
+
+
+def _scale_bars(fig) -> tuple[float, float]:
+    """The heights of Q5's |t| bars (at the start, returned), drawn in the image panel's corner."""
+    insets = [inset for ax in fig.axes for inset in ax.child_axes]
+    bars = [p for ax in insets for p in ax.patches if p.get_gid() == "scale_bars"]
+    assert len(bars) == 2
+    return bars[0].get_height(), bars[1].get_height()
+
+
+def _title_below_the_figures(fig):
+    """Every panel's title stays below the figure's own (a two-line panel title ran into it)."""
+    renderer = fig.canvas.get_renderer()
+    (title,) = [t for t in fig.texts if t.get_text() == fig.get_suptitle()]
+    top = title.get_window_extent(renderer).y0
+    assert all(ax.title.get_window_extent(renderer).y1 <= top for ax in fig.axes)
 
 
 @slow

@@ -5,7 +5,9 @@ o2)`` on the public problem (q5_problem), the sums of squares of every residual 
 got from ``rodriguesResidual`` recorded (q5_problem.recording); and ``rodriguesResidual(K1, M1,
 p1, K2, p2, x)`` at the start x = [w_init.ravel(), r2, t2] when given.
 
-Trusted side (:func:`draw`): the objective call by call; image 2 with the observed points and
+Trusted side (:func:`draw`): the objective call by call, beside it two bars, |t| at the start and
+as returned (points and t shrunk together reproject as well as the right ones: the vanishing bar
+shows a scale collapse that the images cannot); image 2 with the observed points and
 their reprojections before and after; and the student's residuals at the
 start against the handout's layout [(p1 - p1_hat).ravel(), (p2 - p2_hat).ravel()] (those of the
 handout precomputed on the grader's side, see .precomputed: the residual cannot ship).
@@ -66,6 +68,21 @@ def _offsets(ax, p, q, colour, gid):
             ax.plot([x0, x1], [y0, y1], color=colour, lw=1.0, gid=gid)
 
 
+def _scale_bars(ax, t_start: float, t_end: float) -> None:
+    """Two bars on the right of ``ax`` (the objective's panel, empty there once the objective has
+    fallen): |t| at the start (grey) and returned (orange), on one linear scale.  Points and t shrunk together reproject as well as the right ones, so the
+    images cannot show a scale collapse; the orange bar's vanishing does."""
+    inset = ax.inset_axes((0.76, 0.3, 0.2, 0.38))
+    heights = [t_start, t_end if np.isfinite(t_end) else 0.0]
+    for bar in inset.bar([0, 1], heights, color=["#9e9e9e", "#ffb300"], width=0.7):
+        bar.set_gid("scale_bars")
+    inset.set_ylim(0, 1.15 * max(max(heights), 1e-300))
+    inset.set_xticks([0, 1], ["start", "yours"], fontsize=6)
+    inset.set_yticks([])
+    inset.set_title("|t|", fontsize=7, pad=2)
+    inset.tick_params(length=0, pad=1)
+
+
 def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     """The Picture of Q5.
 
@@ -116,10 +133,11 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
                  fontsize=8)
     ax.set_xlabel(f"calls; start {fmt(start)} (dashed), returned M2 and w {fmt(end)} (dotted),\n"
                   "dots: each call, line: lowest so far", fontsize=7)
+    _scale_bars(ax, np.linalg.norm(pr.M2_init[:, 3]), np.linalg.norm(M2[:, 3]))
     ax = axes[1]
+    # one line: a second ran into the figure's title; the bars beside the objective show the scale
     image(ax, pub.data.im2, f"image 2: reprojections before and after; |t| of M2 x{m['t_ratio']:.3g}"
-          + ("\n(w and t shrunk or grown together: the images cannot show it)"
-             if not 0.5 <= m["t_ratio"] <= 2 else ""))
+          + ("" if 0.5 <= m["t_ratio"] <= 2 else (", w and t shrunk" if m["t_ratio"] < 0.5 else ", w and t grown")))
     C2a, C2b = pr.K2 @ pr.M2_init, pr.K2 @ M2
     with np.errstate(all="ignore"):
         _offsets(ax, pr.p2, project(C2a, pr.w_init), "#9e9e9e", "before")
@@ -145,7 +163,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     alt = (f"Bundle adjustment of {n} points from a start moved away from the truth: the total squared reprojection "
            f"error goes from {fmt(start, 'px^2')} to {fmt(end, 'px^2')} with the M2 and w returned ({drop}); you "
            f"reported {said('o1', o1, sizes[0])} and {said('o2', o2, sizes[1])}; |t| changed by a factor "
-           f"{m['t_ratio']:.3g}. "
+           f"{m['t_ratio']:.3g} (two bars beside the objective: |t| at the start and returned). "
            + (f"The objective was evaluated {len(history)} times, from {fmt(m['history_first'])} to "
               f"a lowest value of {fmt(m['history_min'])} ({source})." if len(history) else "No evaluation of the "
               "objective was recorded (neither rodriguesResidual nor a scipy.optimize objective).")
