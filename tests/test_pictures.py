@@ -399,19 +399,27 @@ WRAP_THRESHOLD_TOO_STRICT = WRAP_THRESHOLD_IGNORED.replace("-1.0", "Thres + 150"
 def test_q6_right_keypoints_follow_the_handouts_rule():
     p = picture("Q6")
     m = p.measures
-    assert m["nearest_rule"] == 0 and m["detections_at_thres"] >= 1
+    assert m["nearest_rule"] == 0 and m["detections_at_thres"] >= 1 and m["n_off_rule"] == 0
     assert m["mean_reprojection_px"] < 5 and m["mean_error_3d"] < 0.05
     assert "confidence > Thres" in p.alt and states(p.alt, m["mean_reprojection_px"])
 
 
 @slow
 @pytest.mark.parametrize("source, rule", [(V.WRAP_THRESHOLD_INCLUSIVE, 1), (WRAP_THRESHOLD_IGNORED, 2)])
-def test_q6_threshold_mistakes_follow_another_rule(source, rule):
+def test_q6_threshold_mistakes_follow_another_rule(source, rule, monkeypatch):
+    """Named in words, and ringed in purple where the points follow detections the handout leaves out
+    (a detection at exactly Thres moves two keypoints by a few pixels: without rings nothing shows)."""
+    from starter.checks.pictures import q6_multiview
     from starter.checks.pictures.q6_multiview import RULES
 
+    figures = _captured(monkeypatch, q6_multiview)
     p = picture("Q6", source)
     assert p.measures["nearest_rule"] == rule
     assert RULES[rule] in p.alt
+    n = p.measures["n_off_rule"]
+    rings = [a for ax in figures[-1].axes for a in ax.lines if a.get_gid() == "off_rule"]
+    assert n >= 2 and len(rings) == 3 and all(len(r.get_xdata()) == n for r in rings)
+    assert f"{int(n)} of your keypoint(s) follow detections the handout's rule" in p.alt
 
 
 @slow

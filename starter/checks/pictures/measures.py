@@ -72,7 +72,8 @@ _WORDS: dict[str, dict[str, tuple[str, str]]] = {
            "err_reported": ("the err you returned", "px²"),
            "nearest_rule": ("the threshold rule your points follow (its number; -1: none)", ""),
            "detections_at_thres": ("detections whose confidence is exactly Thres", ""),
-           "n_left_out": ("keypoints the handout's rule reconstructs and yours leaves out", "")},
+           "n_left_out": ("keypoints the handout's rule reconstructs and yours leaves out", ""),
+           "n_off_rule": ("your keypoints that follow detections the handout's rule leaves out", "")},
 }
 
 

@@ -8,7 +8,8 @@ default data holds detections at exactly that confidence, so using them shows).
 Trusted side (:func:`draw`): each view with its detections (filled: confidence above Thres, used by
 the handout's rule; hollow: at or below), the student's P reprojected (crosses, joined to their
 detections) and the true keypoints reprojected (default data); a keypoint the handout's rule
-reconstructs and the student's P leaves out is ringed in red.  On the default data the student's P
+reconstructs and the student's P leaves out is ringed in red, one where P follows detections the
+handout's rule leaves out (at or below Thres) in purple.  On the default data the student's P
 is also compared with linear triangulations under three rules (confidence > Thres, >= Thres, every
 detection; precomputed on the grader's side, see .precomputed): the rule it is nearest names the
 threshold the code applied.
@@ -72,6 +73,18 @@ def _nearest_rule(P, rules) -> tuple[int, dict[str, float]]:
     return (int(np.argmin([gaps[r] for r in RULES])) if finite else -1), gaps
 
 
+def _off_rule(P, rules) -> np.ndarray:
+    """(N,) bool: the keypoints where the rules differ and P's point is nearer another rule's than the
+    handout's (RULES[0]), or where P has a point and the handout's rule none: where another threshold shows."""
+    stack = [np.asarray(rules[r], float) for r in RULES]
+    with np.errstate(invalid="ignore"):
+        d = np.stack([np.linalg.norm(P - Q, axis=1) for Q in stack])        # (3, N), NaN where either has none
+    has = np.isfinite(P).all(axis=1)
+    handout_has = np.isfinite(stack[0]).all(axis=1)
+    nearer = np.nanmin(np.where(np.isnan(d[1:]), np.inf, d[1:]), axis=0) < np.where(np.isnan(d[0]), np.inf, d[0])
+    return has & (~handout_has | (handout_has & nearer))
+
+
 def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     """The Picture of Q6.
 
@@ -82,7 +95,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     other data than the default), gap_<k> (mean distance of P to rule k's points where the rules
     differ, world units; 1e6 for a point one has and the other has not; default data only), detections_at_thres (detections whose confidence is exactly Thres),
     n_left_out (keypoints the handout's rule, confidence > Thres in two views or more, reconstructs and
-    P leaves out: ringed in red in every view).
+    P leaves out: ringed in red in every view), n_off_rule (keypoints where P follows another rule:
+    nearer that rule's point than the handout's where they differ, or a point the handout's rule
+    does not reconstruct; ringed in purple; default data only).
     """
     pub = car(root)
     frame, P_true = pub.frame, pub.P_true
@@ -96,6 +111,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     nearest, gaps = _nearest_rule(P, rules) if rules is not None else (-1, {})
     # keypoints the handout's rule (RULES[0]) reconstructs that P leaves out: ringed in every view
     left_out = ~finite & _handout_rule_reconstructs(pts, THRES)
+    # and those where P follows another rule (a detection at or below Thres used): ringed in purple
+    off_rule = _off_rule(P, rules) if rules is not None else np.zeros(n, bool)
     fig, axes = figure(3, 1, size=(4.6, 4.0))
     dists = []
     for k, (ax, Ck, p) in enumerate(zip(axes, C, pts)):
@@ -111,6 +128,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         ax.plot(p[at, 0], p[at, 1], "s", ms=8, mfc="none", mec="#c2185b", mew=1.5, gid="detection_at_thres")
         ax.plot(q[finite, 0], q[finite, 1], "x", ms=6, color="#ff6f00", gid="yours")
         ax.plot(p[left_out, 0], p[left_out, 1], "o", ms=16, mfc="none", mec="#e53935", mew=2, gid="left_out")
+        ax.plot(p[off_rule, 0], p[off_rule, 1], "o", ms=16, mfc="none", mec="#8e24aa", mew=2, gid="off_rule")
         if P_true is not None:
             t = project(Ck, P_true)
             ax.plot(t[:, 0], t[:, 1], "+", ms=7, color="#2e7d32", gid="truth")
@@ -126,7 +144,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     m = {"mean_reprojection_px": float(np.mean(d)) if len(d) else float("nan"),
          "n_reconstructed": float(finite.sum()), "err_reported": err, "nearest_rule": float(nearest),
          "detections_at_thres": float(sum(int(np.sum(p[:, 2] == THRES)) for p in pts)),
-         "n_left_out": float(left_out.sum())}
+         "n_left_out": float(left_out.sum()), "n_off_rule": float(off_rule.sum())}
     for k, rule in enumerate(RULES):
         if rule in gaps:
             m[f"gap_{k}"] = gaps[rule]
@@ -138,6 +156,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
                        "+: the true keypoints", fontsize=7)
     missing = (f"{int(left_out.sum())} keypoint(s) that {RULES[0]} reconstructs are not in your P (red rings)"
                if left_out.any() else "")
+    if off_rule.any():
+        missing += (("; " if missing else "") + f"{int(off_rule.sum())} of your keypoint(s) follow detections "
+                    f"the handout's rule ({RULES[0]}) leaves out (purple rings)")
     if rules is None:
         rule = f"the comparison with the three threshold rules is {precomputed.NOT_PRECOMPUTED}"
     elif nearest >= 0:
