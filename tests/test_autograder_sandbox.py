@@ -465,6 +465,24 @@ def test_no_staff_path_in_the_namespaces_command_line_root_or_mount_table():
     assert "home" not in seen.value["root"] and "run" not in seen.value["root"]
 
 
+def test_one_input_of_a_request_is_stopped_at_its_own_limit(box):
+    """With ``each``, a hung input costs its own limit, not the whole request's; an input slower
+    than its share but within ``each`` is not cut short."""
+    import time
+
+    src = ("import time\ndef hangs_first(k):\n    while k == 0:\n        pass\n    return k\n"
+           "def slow_first(k):\n    time.sleep(0.6 if k == 0 else 0.0)\n    return k\n")
+    with box.session(src, budget=120) as session:
+        started = time.monotonic()
+        hung = session.map("hangs_first", [((k,), {}) for k in range(4)], seconds=12, budget=8, each=1.5)
+        took = time.monotonic() - started
+        slow = session.map("slow_first", [((k,), {}) for k in range(4)], seconds=2.5, budget=2, each=1.5)
+    assert hung[0].status == "timeout" and "more than 1.5 s" in hung[0].message, hung[0]
+    assert [o.status for o in hung[1:]] == ["skipped"] * 3
+    assert took < 8, took   # the request's 12 s were not spent
+    assert [o.status for o in slow] == ["ok"] * 4 and [o.value for o in slow] == [0, 1, 2, 3]
+
+
 def test_a_whole_map_of_large_returns_is_bounded_in_the_grader(box):
     """Each value may be large, but the values of one request add up to at most ``result_bytes``
     in the grader's process: a matcher returning 40 MB per point must not fill the worker."""

@@ -67,6 +67,14 @@ class CheckFailed(AssertionError):
         super().__init__("\n".join(self.lines))
 
 
+# A request of several inputs is timed as a whole, and one input may use this many times its share
+# of it, or EACH_FLOOR seconds if more (``_Calls.each``; both times the config's time_scale): enough
+# for what a first call may do once (imports, a JIT's compiling, a cache), while a hung input costs
+# that much and not every input's time.
+EACH_SHARE = 2
+EACH_FLOOR = 10.0
+
+
 class _Calls:
     time_scale = 1.0
     cpu_clock = False   # the session's limits are CPU seconds (Gradescope), not wall-clock seconds
@@ -74,17 +82,19 @@ class _Calls:
     def each(self, function: str, inputs, *, seconds: float, args=(), slack: float = 2.0, figure: bool = False,
              swap=None, kwargs=None):
         """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k], **kwargs)``, all
-        within ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request;
-        ``swap``: what is switched off for this request only (``{"refineF": "off"}``, see the child's ``refine_switch_for``)."""
+        within ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request,
+        and one input within ``EACH_SHARE`` times ``seconds`` (at least ``EACH_FLOOR``); ``swap``: what is switched off for this
+        request only (``{"refineF": "off"}``, see the child's ``refine_switch_for``)."""
         inputs = [(tuple(a), dict(kwargs or {})) for a in inputs]
         budget = float(seconds) * len(inputs) * self.time_scale
+        each = max(float(seconds) * EACH_SHARE, EACH_FLOOR) * self.time_scale
         if self.cpu_clock:
             # CPU seconds count the student's code only (no waiting on a loaded machine), so the
             # slack scales with the limits like the budget does; a hung call then costs its budget
             # and little more (Gradescope at time_scale 0.1: 0.25 s instead of 2 to 5 s a request).
             slack = max(0.25, float(slack) * min(1.0, self.time_scale))
         return self.map(function, inputs, args=args, seconds=budget + slack, budget=budget, figure=figure,
-                        **({"swap": swap} if swap else {}))
+                        each=each, **({"swap": swap} if swap else {}))
 
 
 class Student(_Calls):
@@ -119,10 +129,10 @@ class Student(_Calls):
             raise StudentError(failure(function, o))
         return o.value
 
-    def map(self, function, inputs, *, args=(), seconds, budget=None, figure=False, swap=None):
+    def map(self, function, inputs, *, args=(), seconds, budget=None, each=None, figure=False, swap=None):
         """One ``CallOutcome`` per ``(args, kwargs)`` of ``inputs`` (see ``Session.map``); times are not scaled."""
-        return self.session.map(function, inputs, args=args, seconds=seconds, budget=budget, figure=figure,
-                                swap=swap)
+        return self.session.map(function, inputs, args=args, seconds=seconds, budget=budget, each=each,
+                                figure=figure, swap=swap)
 
 
 _NO_LIMIT = 10**6  # seconds: the in-process stand-in times nothing
@@ -148,7 +158,7 @@ class LocalStudent(_Calls):
     def fresh_child(self) -> None:
         """No child here: the functions are this process's own."""
 
-    def map(self, function, inputs, *, args=(), seconds=None, budget=None, figure=False, swap=None):
+    def map(self, function, inputs, *, args=(), seconds=None, budget=None, each=None, figure=False, swap=None):
         """One outcome per input, made as the sandbox's child makes them (``child.call_request``,
         read back by ``session.outcome_of``): the same copies of the arguments, refineF switch,
         figure reading and encoding of the value; no time limits."""

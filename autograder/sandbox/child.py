@@ -700,9 +700,16 @@ def call_request(request, fn, channel, origins, limit, max_bytes, wire, np, *, m
     figure = bool(request.get("figure"))
     shared = wire.decode(request.get("args", {"__tuple__": []}), wire.Limits(max_array_bytes=2**31,
                                                                             max_total_bytes=2**32))
+    # An input's own limit (None: the request's): a hung first input then costs its own share, not
+    # every input's.
+    each = request.get("each")
+    each = float(each) if type(each) in (int, float) and 0 < each < seconds else None
     clock = "cpu" if request.get("clock") == "cpu" else "wall"
     now = time.process_time if clock == "cpu" else time.monotonic
-    over = f"used more than {seconds:g} s of CPU time" if clock == "cpu" else f"took more than {seconds:g} s"
+
+    def over(allowed):
+        return f"used more than {allowed:g} s of CPU time" if clock == "cpu" else f"took more than {allowed:g} s"
+
     # Left in the finally below, after the timer is disarmed: no alarm may cut the putting back short.
     switch = refine_switch_for(fn, request.get("swap"))
     run = switch.__enter__()  # refineF switched off: the Switch counting its calls; else None
@@ -724,6 +731,10 @@ def call_request(request, fn, channel, origins, limit, max_bytes, wire, np, *, m
                 channel.send(record)
                 continue
             counted = _refine_calls(run)
+            allowed = seconds
+            if each is not None and each < seconds - (now() - start):
+                allowed = each
+                _arm(each, clock)
             try:
                 try:
                     args = list(copy_arguments(shared, np)) + list(wire.decode(item.get("args", {"__tuple__": []})))
@@ -735,7 +746,7 @@ def call_request(request, fn, channel, origins, limit, max_bytes, wire, np, *, m
                     record.update(status="ok", value=wire.encode_returned(value))
                 except _Timeout:
                     timed_out = True
-                    record.update(status="timeout", message=over)
+                    record.update(status="timeout", message=over(allowed))
                 except wire.Unsupported as exc:
                     record.update(status="malformed", message=str(exc))
                 except MemoryError as exc:
@@ -748,11 +759,17 @@ def call_request(request, fn, channel, origins, limit, max_bytes, wire, np, *, m
                     record["refineF_calls"] = min(max(_refine_calls(run) - counted, 0), 2**31)
             except _Timeout:
                 timed_out = True
-                record.update(status="timeout", message=over)
+                record.update(status="timeout", message=over(allowed))
             except BaseException:  # noqa: BLE001 - e.g. a message whose __str__ itself failed
                 record.update(status="exception", message="the code raised an exception that could not be described")
             if os.getpid() != main_pid:
                 os._exit(0)  # a process the student forked must never report
+            if allowed != seconds:  # back to the request's own limit
+                left = seconds - (now() - start)
+                if left > 0:
+                    _arm(left, clock)
+                else:
+                    _disarm()  # the budget check skips what is left
             record["seconds"] = round(time.perf_counter() - t0, 6)
             if record["status"] == "ok":
                 size = len(json.dumps(record["value"], allow_nan=False))

@@ -148,14 +148,16 @@ class Session:
         return self.map(function, [(args, kwargs)], seconds=seconds, clock=clock)[0]
 
     def map(self, function: str, inputs: Sequence, *, args: Sequence = (), seconds: float,
-            budget: float | None = None, figure: bool = False, clock: str | None = None,
-            swap: dict | None = None) -> list[CallOutcome]:
+            budget: float | None = None, each: float | None = None, figure: bool = False,
+            clock: str | None = None, swap: dict | None = None) -> list[CallOutcome]:
         """``function(*args, *a, **k)`` for each ``(a, k)`` of ``inputs``, one outcome per input.
 
         seconds: hard limit of the whole request (the child stops it; the grader kills the child
         ``limits.grace`` later, or under the CPU clock ``seconds * limits.wall_factor + grace``
         wall-clock seconds after the request started); budget: no new input is started after it
-        (default: seconds; same clock); figure: report the (K, 3) points the function's 3D
+        (default: seconds; same clock); each: the limit of one input (default: the request's; same
+        clock), so that a function that hangs on its first input costs that, not the whole
+        request's time; figure: report the (K, 3) points the function's 3D
         figures show instead of its value; clock: "wall" or "cpu" (default ``limits.clock``);
         swap: what is switched off for this call only (``{"refineF": "off"}``: refineF, see the child;
         each outcome's ``refineF_calls`` then says how many times refineF was called on its input).
@@ -174,6 +176,8 @@ class Session:
                        "inputs": [{"args": wire.encode(tuple(a)), "kwargs": wire.encode(dict(k))} for a, k in inputs],
                        "seconds": seconds, "budget": float(budget if budget is not None else seconds),
                        "figure": bool(figure), "clock": clock}
+            if each is not None:
+                request["each"] = float(each)
             if swap:
                 request["swap"] = {str(k): str(v) for k, v in dict(swap).items()}
         except (wire.WireError, TypeError, ValueError) as exc:
