@@ -255,6 +255,9 @@ def test_q31_the_drawn_lines_are_the_implied_F(monkeypatch):
     assert _sticks(pair).max() == pytest.approx(q2.MISS_MAGNIFY * p.measures["k_differ_largest_miss_px"], rel=1e-6)
     assert _sticks(temple).max() > 100 and _sticks(pair).max() > 100
     assert figures[-1].axes[1].get_title() == fmt(p.measures["largest_miss_px"], "px")
+    _titles_stay_over_their_panels(figures[-1])
+    picture("Q3.1", E_INVERSE_K)          # the longest numbers: millions of pixels
+    _titles_stay_over_their_panels(figures[-1])
 
 
 # ----------------------------------------------------------------------------- Q3.2

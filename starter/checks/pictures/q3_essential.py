@@ -124,8 +124,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         measures[f"{prefix}lines_in_image"] = float(sum(clip_line(ln, w, h) is not None for ln in h1 @ F.T))
         if row < len(Es) - 1:
             big.tick_params(labelbottom=False)   # its x labels ran into the next row's title
-        # one line: a second would run into the zooms' row above (lines off the image: in the alt)
-        big.set_title(f"{label}: dots {fmt(mean, 'px')} from your lines, up to {fmt(largest, 'px')}", fontsize=9)
+        # one line at 8 pt: a second would run into the zooms' row above, 9 pt past the panel into its
+        # first zoom (how many lines cross the image is in the alt)
+        big.set_title(f"{label}: dots {fmt(mean, 'px')} from your lines, up to {fmt(largest, 'px')}", fontsize=8)
         parts.append(f"{label}: {fmt(mean, 'px')}")
         parts_far.append(f"{label}: {fmt(largest, 'px')}")
     alt = (f"Image 2 with {N_DRAWN} epipolar lines of the F your E implies (K2^-T E K1^-1; solid, orange) and of the "
