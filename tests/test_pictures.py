@@ -433,9 +433,19 @@ def test_q6_too_strict_leaves_keypoints_out():
 
 
 @slow
-def test_q6_mean_error_is_stated_as_returned():
-    right, mean = picture("Q6").measures, picture("Q6", V.WRAP_MULTIVIEW_MEAN_ERR).measures
-    assert mean["err_reported"] < 0.2 * right["err_reported"]
+def test_q6_mean_error_is_stated_as_returned(monkeypatch):
+    """And drawn: the err returned beside the sum of squares recomputed, two bars of one height for the
+    handout's err, a mean's bar a fraction of the other (the keypoints alone look the same)."""
+    from starter.checks.pictures import q6_multiview
+
+    figures = _captured(monkeypatch, q6_multiview)
+    right = picture("Q6").measures
+    assert _bars(figures[-1], "err_bars") == pytest.approx((right["err_reported"], right["sum_of_squares"]), rel=1e-9)
+    assert right["err_reported"] == pytest.approx(right["sum_of_squares"], rel=1e-6)
+    mean = picture("Q6", V.WRAP_MULTIVIEW_MEAN_ERR).measures
+    err, squares = _bars(figures[-1], "err_bars")
+    assert err == pytest.approx(mean["err_reported"]) and squares == pytest.approx(right["sum_of_squares"])
+    assert mean["err_reported"] < 0.2 * right["err_reported"] and err < 0.2 * squares
     assert mean["mean_reprojection_px"] == pytest.approx(right["mean_reprojection_px"])
 
 
@@ -718,20 +728,21 @@ def test_q5_scale_collapse_is_said_on_the_figure(monkeypatch):
     title = figures[-1].axes[1].get_title()
     assert f"x{m['t_ratio']:.3g}" in title and "shrunk" in title
     # and without reading it: |t| returned, a bar beside |t| at the start, vanishes
-    start, yours = _scale_bars(figures[-1])
+    start, yours = _bars(figures[-1])
     assert yours == pytest.approx(m["t_ratio"] * start, rel=1e-9) and yours < 0.01 * start
     _title_below_the_figures(figures[-1])
     picture("Q5")
     assert "shrunk" not in figures[-1].axes[1].get_title()
-    start, yours = _scale_bars(figures[-1])
+    start, yours = _bars(figures[-1])
     assert 0.5 * start < yours < 2 * start
     _title_below_the_figures(figures[-1])
 
 
-def _scale_bars(fig) -> tuple[float, float]:
-    """The heights of Q5's |t| bars (at the start, returned), drawn in the image panel's corner."""
+def _bars(fig, gid: str = "scale_bars") -> tuple[float, float]:
+    """The heights of the two bars ``gid`` drawn in a panel's corner: Q5's |t| (at the start, returned),
+    Q6's "err_bars" (err returned, sum of squares recomputed)."""
     insets = [inset for ax in fig.axes for inset in ax.child_axes]
-    bars = [p for ax in insets for p in ax.patches if p.get_gid() == "scale_bars"]
+    bars = [p for ax in insets for p in ax.patches if p.get_gid() == gid]
     assert len(bars) == 2
     return bars[0].get_height(), bars[1].get_height()
 

@@ -70,6 +70,8 @@ _WORDS: dict[str, dict[str, tuple[str, str]]] = {
            "n_reconstructed": ("keypoints reconstructed", ""),
            "mean_error_3d": ("mean distance of your keypoints to the true ones", "world units"),
            "err_reported": ("the err you returned", "px²"),
+           "sum_of_squares": ("sum of the squared distances of your keypoints to the detections above Thres, "
+                              "recomputed", "px²"),
            "nearest_rule": ("the threshold rule your points follow (its number; -1: none)", ""),
            "detections_at_thres": ("detections whose confidence is exactly Thres", ""),
            "n_left_out": ("keypoints the handout's rule reconstructs and yours leaves out", ""),

@@ -9,7 +9,8 @@ Trusted side (:func:`draw`): each view with its detections (filled: confidence a
 the handout's rule; hollow: at or below), the student's P reprojected (crosses, joined to their
 detections) and the true keypoints reprojected (default data); a keypoint the handout's rule
 reconstructs and the student's P leaves out is ringed in red, one where P follows detections the
-handout's rule leaves out (at or below Thres) in purple.  On the default data the student's P
+handout's rule leaves out (at or below Thres) in purple; in camera 3's corner, the err returned
+beside the sum of squares recomputed.  On the default data the student's P
 is also compared with linear triangulations under three rules (confidence > Thres, >= Thres, every
 detection; precomputed on the grader's side, see .precomputed): the rule it is nearest names the
 threshold the code applied.
@@ -85,6 +86,21 @@ def _off_rule(P, rules) -> np.ndarray:
     return has & (~handout_has | (handout_has & nearer))
 
 
+def _err_bars(ax, err: float, sum_of_squares: float) -> None:
+    """Two bars in the lower right corner of ``ax`` (camera 3's panel, empty there on the default data):
+    the err returned and the sum of squares recomputed, on one linear scale, as Q3.2's figure shows
+    them: an err that is a mean, or over other detections, stands apart at a glance."""
+    inset = ax.inset_axes((0.8, 0.06, 0.18, 0.34))
+    heights = [err if np.isfinite(err) else 0.0, sum_of_squares]
+    for bar in inset.bar([0, 1], heights, color=["#ffb300", "#4fc3f7"], width=0.7):
+        bar.set_gid("err_bars")
+    inset.set_ylim(0, 1.15 * max(max(heights), 1e-300))
+    inset.set_xticks([0, 1], ["err", "sum sq."], fontsize=6)
+    inset.set_yticks([])
+    inset.set_title("px^2", fontsize=6, pad=2)
+    inset.tick_params(length=0, pad=1)
+
+
 def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     """The Picture of Q6.
 
@@ -95,7 +111,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     other data than the default), gap_<k> (mean distance of P to rule k's points where the rules
     differ, world units; 1e6 for a point one has and the other has not; default data only), detections_at_thres (detections whose confidence is exactly Thres),
     n_left_out (keypoints the handout's rule, confidence > Thres in two views or more, reconstructs and
-    P leaves out: ringed in red in every view), n_off_rule (keypoints where P follows another rule:
+    P leaves out: ringed in red in every view), sum_of_squares (of the distances of P reprojected to the
+    detections above Thres, pixels^2: the handout's err; drawn beside err_reported), n_off_rule (keypoints where P follows another rule:
     nearer that rule's point than the handout's where they differ, or a point the handout's rule
     does not reconstruct; ringed in purple; default data only).
     """
@@ -114,7 +131,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     # and those where P follows another rule (a detection at or below Thres used): ringed in purple
     off_rule = _off_rule(P, rules) if rules is not None else np.zeros(n, bool)
     fig, axes = figure(3, 1, size=(4.6, 4.0))
-    dists = []
+    dists, squares = [], 0.0
     for k, (ax, Ck, p) in enumerate(zip(axes, C, pts)):
         above = p[:, 2] > THRES
         with np.errstate(all="ignore"):
@@ -135,6 +152,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         for i, (x, y) in enumerate(p[:, :2]):
             ax.text(x, y, f" {i}", fontsize=6, color="#555")
         dists.append(np.linalg.norm(q - p[:, :2], axis=1)[finite & above])
+        squares += float(np.sum(dists[-1] ** 2))
         ax.set_title(f"camera {k + 1}", fontsize=8)
         lo, hi = np.nanmin(p[:, :2], axis=0), np.nanmax(p[:, :2], axis=0)
         pad = 0.12 * (hi - lo).max()
@@ -144,7 +162,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     m = {"mean_reprojection_px": float(np.mean(d)) if len(d) else float("nan"),
          "n_reconstructed": float(finite.sum()), "err_reported": err, "nearest_rule": float(nearest),
          "detections_at_thres": float(sum(int(np.sum(p[:, 2] == THRES)) for p in pts)),
-         "n_left_out": float(left_out.sum()), "n_off_rule": float(off_rule.sum())}
+         "n_left_out": float(left_out.sum()), "n_off_rule": float(off_rule.sum()), "sum_of_squares": squares}
+    _err_bars(axes[2], err, squares)
     for k, rule in enumerate(RULES):
         if rule in gaps:
             m[f"gap_{k}"] = gaps[rule]
@@ -173,5 +192,6 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            f"detections above Thres"
            + (f"; mean 3D distance to the true keypoints {fmt(m['mean_error_3d'])}" if "mean_error_3d" in m else "")
            + (f". Of three rules, {rule}." if rules is not None else f"; {rule}.") + (f" {missing[0].upper()}{missing[1:]}." if missing else "")
-           + f" Your {said('err', err, err_count)}.")
+           + f" Your {said('err', err, err_count)}; the sum of the squared distances of your keypoints reprojected "
+           f"to the detections above Thres is {fmt(squares, 'px^2')} (two bars in camera 3's corner).")
     return to_picture("Q6", "MultiviewReconstruction: your keypoints in the three views", fig, alt, m)
