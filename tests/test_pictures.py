@@ -422,7 +422,7 @@ def test_q6_threshold_mistakes_follow_another_rule(source, rule, monkeypatch):
     n = p.measures["n_off_rule"]
     rings = [a for ax in figures[-1].axes for a in ax.lines if a.get_gid() == "off_rule"]
     assert n >= 2 and len(rings) == 3 and all(len(r.get_xdata()) == n for r in rings)
-    assert f"{int(n)} of your keypoint(s) follow detections the handout's rule" in p.alt
+    assert f"{int(n)} of your keypoint(s) follow detections at or below Thres" in p.alt
 
 
 @slow
