@@ -4,7 +4,7 @@ self-checks.
 
 - every valid program gets full marks on every autograded question, under every secret it is
   graded under; every mistake loses the questions its name gives, and only those (at least half
-  of each, for the mistakes marked ``half``);
+  of each question its ``half`` names);
 - public and hidden agree: a question's self-checks pass exactly when the grader gives it full
   marks (the self-checks run on the program's own functions, as a student's notebook would);
 - the CLI (``python -m autograder grade``, the sandbox) agrees with the in-process grading on
@@ -343,7 +343,7 @@ def _verdict(name, qid, lost, kept: float = 0.0):
     p = PROGRAMS[name]
     if qid in p.loses and not lost:
         return "keeps full marks, but must lose it"
-    if qid in p.loses and p.half and kept > MISTAKE_KEEPS_AT_MOST + 1e-9:
+    if p.halves(qid) and kept > MISTAKE_KEEPS_AT_MOST + 1e-9:
         return f"keeps {kept:.0%} of it, but must lose at least {1 - MISTAKE_KEEPS_AT_MOST:.0%}"
     if qid not in p.loses and lost:
         return "loses it, but must keep full marks"

@@ -93,15 +93,21 @@ class Program:
     """layout: "per_part", "submission_py", "submission_py_own_helper", "submission_py_util" or
     "notebook"; pieces: function -> its source (None: not written, as 2018-21's Q4.2 script);
     loses: the questions it must lose (all others full); why: one line, from the handout; half:
-    it must lose at least half of each of them."""
+    it must lose at least half of each of them (True), or of those named (a set: the question of the
+    mistaken function, where a later question that builds on it keeps the part it gets right)."""
 
     layout: str
     pieces: dict
     loses: frozenset = frozenset()
     why: str = ""
-    # Keeps at most half of each question in ``loses`` (the mistakes whose partial credit was found
-    # to keep most of a question; the others must only lose some).
-    half: bool = False
+    # Keeps at most half of each question in ``loses``, or of the questions named (the mistakes whose
+    # partial credit was found to keep most of a question; the others must only lose some).
+    half: bool | frozenset = False
+
+    def halves(self, qid: str) -> bool:
+        """Whether the program must keep at most half of question ``qid``."""
+        named = self.half if isinstance(self.half, frozenset) else (self.loses if self.half else frozenset())
+        return qid in self.loses and qid in named
 
     @property
     def valid(self) -> bool:
@@ -191,10 +197,12 @@ PROGRAMS: dict[str, Program] = {
         why="returns the pixel of im1, not 'the coordinates of the pixel on im2'"),
     "y2024_per_part_matcher_wrong_line_loses_Q4_1_Q4_2": Program(
         "per_part", _pieces(epipolarCorrespondence=s.EC_WRONG_LINE), frozenset({"Q4.1", "Q4.2"}),
-        why="the match lies on F x1 ('the epipolar line'), not on F^T x1; compute3D_pts builds on it", half=True),
+        why="the match lies on F x1 ('the epipolar line'), not on F^T x1; compute3D_pts builds on it",
+        half=frozenset({"Q4.1"})),
     "y2025_notebook_matcher_small_box_loses_Q4_1_Q4_2": Program(
         "notebook", _pieces(epipolarCorrespondence=s.EC_SMALL_BOX, **_NB), frozenset({"Q4.1", "Q4.2"}),
-        why="'search along the epipolar line': rows within 10 px of y1 miss the matches further along it", half=True),
+        why="'search along the epipolar line': rows within 10 px of y1 miss the matches further along it",
+        half=frozenset({"Q4.1"})),
     "y2023_per_part_multiview_views_1_2_loses_Q6": Program(
         "per_part", _pieces(MultiviewReconstruction=s.MV_VIEWS_1_2), frozenset({"Q6"}),
         why="'only use the points whose confidence is above Thres': two confident views are not always 1 and 2", half=True),
