@@ -71,7 +71,7 @@ class CheckFailed(AssertionError):
 # of it, or EACH_FLOOR seconds if more (``_Calls.each``; both times the config's time_scale): enough
 # for what a first call may do once (imports, a JIT's compiling, a cache), while a hung input costs
 # that much and not every input's time.
-EACH_SHARE = 2
+EACH_SHARE = 1.5
 EACH_FLOOR = 10.0
 
 
@@ -83,8 +83,9 @@ class _Calls:
              swap=None, kwargs=None):
         """One ``CallOutcome`` per argument tuple of ``inputs``: ``function(*args, *inputs[k], **kwargs)``, all
         within ``seconds`` per input (times the config's ``time_scale``) plus ``slack`` s for the request,
-        and one input within ``EACH_SHARE`` times ``seconds`` (at least ``EACH_FLOOR``); ``swap``: what is switched off for this
-        request only (``{"refineF": "off"}``, see the child's ``refine_switch_for``)."""
+        and one input within ``EACH_SHARE`` times ``seconds`` (at least ``EACH_FLOOR``); ``swap``: what
+        is switched off for this request only (``{"refineF": "off"}``, see the child's
+        ``refine_switch_for``)."""
         inputs = [(tuple(a), dict(kwargs or {})) for a in inputs]
         budget = float(seconds) * len(inputs) * self.time_scale
         each = max(float(seconds) * EACH_SHARE, EACH_FLOOR) * self.time_scale
