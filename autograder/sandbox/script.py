@@ -280,18 +280,16 @@ def _private_root(rt: Runtime, workdir: Path) -> list[str]:
     q = shlex.quote
     new = "/tmp"   # the new root's mount point before the move: any folder will do, this one exists
     lines: list[str] = []
-    kept: dict[Path, str] = {}
     fd = 3
 
     def keep(path: Path) -> str:
-        """An open descriptor on ``path``, taken before the new root covers /tmp."""
+        """A path to an open descriptor on ``path``, taken before the new root covers /tmp."""
         nonlocal fd
         if fd > _STAGE_FD_MAX:
             raise RuntimeError("too many folders to keep reachable in the sandbox")
         lines.append(f"exec {fd}<{q(str(path))}")
-        kept[path] = f"/proc/self/fd/{fd}"
         fd += 1
-        return kept[path]
+        return f"/proc/self/fd/{fd - 1}"
 
     lib_src = keep(rt.lib)
     system = [d for d in SYSTEM_DIRS if os.path.lexists(d)]

@@ -50,6 +50,9 @@ _RESULT_FD_MIN = 100   # above the fds 3..9 the namespace's shell uses
 _MAX_LINE_SLACK = 2**20
 _ITEM_STATUSES = {"ok", "exception", "timeout", "malformed", "skipped"}
 _START_SLACK = 5.0     # seconds the child may take to begin a call it was sent
+# Seconds a pid namespace may take to end its processes after its first one was killed: that
+# process ends them as it exits, after unshare itself is reaped (the sweep is the backstop).
+_NAMESPACE_END = 2.0
 
 
 class _ProtocolError(Exception):
@@ -514,6 +517,10 @@ class Session:
                 except OSError:
                     pass
             if self.rt.uid is not None:
+                if self.rt.namespaced:
+                    end = time.monotonic() + _NAMESPACE_END
+                    while live_pids_of_uid(self.rt.uid) and time.monotonic() < end:
+                        time.sleep(0.02)
                 self.swept += len(sweep_uid(self.rt.uid))
             # Removed without recursion: a tree thousands of folders deep must not stop the class.
             self.not_removed.extend(tree.remove(child.jobdir).named())
