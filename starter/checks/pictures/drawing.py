@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["clip_line", "image", "line_distances"]
+__all__ = ["clip_line", "image", "line_distances", "two_bars"]
 
 
 def image(ax, im, title: str = "") -> None:
@@ -53,3 +53,18 @@ def clip_line(line, width: float, height: float):
     pts = sorted(set(pts))
     (x0, y0), (x1, y1) = pts[0], pts[-1]
     return (x0, x1), (y0, y1)
+
+
+def two_bars(ax, where, heights, colors, labels, title: str, gid: str) -> None:
+    """Two bars in an inset of ``ax`` at ``where`` (x, y, width, height in axes fractions), on one
+    linear scale from 0: two numbers that should agree (or not) compared at a glance.  A
+    non-finite height is drawn as 0; each bar gets ``gid`` (tests find them by it)."""
+    inset = ax.inset_axes(where)
+    heights = [h if np.isfinite(h) else 0.0 for h in heights]
+    for bar in inset.bar([0, 1], heights, color=list(colors), width=0.7):
+        bar.set_gid(gid)
+    inset.set_ylim(0, 1.15 * max(max(heights), 1e-300))
+    inset.set_xticks([0, 1], list(labels), fontsize=6)
+    inset.set_yticks([])
+    inset.set_title(title, fontsize=7, pad=2)
+    inset.tick_params(length=0, pad=1)

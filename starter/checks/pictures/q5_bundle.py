@@ -23,7 +23,7 @@ from core.geometry import project
 
 from . import precomputed
 from .arrays import call, count, maybe, need, number, read, said
-from .drawing import image
+from .drawing import image, two_bars
 from .picture import Picture, figure, fmt, to_picture
 from .public import need_truth, temple
 from .q5_problem import problem, recording, start_x
@@ -72,15 +72,8 @@ def _scale_bars(ax, t_start: float, t_end: float) -> None:
     """Two bars on the right of ``ax`` (the objective's panel, empty there once the objective has
     fallen): |t| at the start (grey) and returned (orange), on one linear scale.  Points and t shrunk together reproject as well as the right ones, so the
     images cannot show a scale collapse; the orange bar's vanishing does."""
-    inset = ax.inset_axes((0.76, 0.3, 0.2, 0.38))
-    heights = [t_start, t_end if np.isfinite(t_end) else 0.0]
-    for bar in inset.bar([0, 1], heights, color=["#9e9e9e", "#ffb300"], width=0.7):
-        bar.set_gid("scale_bars")
-    inset.set_ylim(0, 1.15 * max(max(heights), 1e-300))
-    inset.set_xticks([0, 1], ["start", "yours"], fontsize=6)
-    inset.set_yticks([])
-    inset.set_title("|t|", fontsize=7, pad=2)
-    inset.tick_params(length=0, pad=1)
+    two_bars(ax, (0.76, 0.3, 0.2, 0.38), [t_start, t_end], ["#9e9e9e", "#ffb300"], ["start", "yours"],
+             "|t|", "scale_bars")
 
 
 def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:

@@ -26,6 +26,7 @@ from core.geometry import project
 
 from . import precomputed
 from .arrays import call, count, maybe, need, number, read, said
+from .drawing import two_bars
 from .picture import Picture, figure, fmt, to_picture
 from .public import car
 
@@ -90,15 +91,8 @@ def _err_bars(ax, err: float, sum_of_squares: float) -> None:
     """Two bars in the lower right corner of ``ax`` (camera 3's panel, empty there on the default data):
     the err returned and the sum of squares recomputed, on one linear scale, as Q3.2's figure shows
     them: an err that is a mean, or over other detections, stands apart at a glance."""
-    inset = ax.inset_axes((0.83, 0.03, 0.15, 0.3))
-    heights = [err if np.isfinite(err) else 0.0, sum_of_squares]
-    for bar in inset.bar([0, 1], heights, color=["#ffb300", "#4fc3f7"], width=0.7):
-        bar.set_gid("err_bars")
-    inset.set_ylim(0, 1.15 * max(max(heights), 1e-300))
-    inset.set_xticks([0, 1], ["err", "sum"], fontsize=6)
-    inset.set_yticks([])
-    inset.set_title("px^2", fontsize=6, pad=2)
-    inset.tick_params(length=0, pad=1)
+    two_bars(ax, (0.83, 0.03, 0.15, 0.3), [err, sum_of_squares], ["#ffb300", "#4fc3f7"], ["err", "sum"],
+             "px^2", "err_bars")
 
 
 def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
