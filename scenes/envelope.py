@@ -50,7 +50,7 @@ BORDER_MARGIN = 51
 # generated temple has more depth relief along the baseline than the official points show, and
 # its 640x480 scenes reach -45..31 px (the default data -42..29); the hidden scenes, at most
 # 400x300, stay within -27..20.  The bound covers the 640x480 scenes: narrowing it to the
-# official -26..14 (+25 %) needs a shallower swing of the 640x480 generator (issue 16, open).
+# official -26..14 (+25 %) needs a shallower swing of the 640x480 generator (not done yet).
 DISPARITY_X = (-12.5, 12.5)
 DISPARITY_Y = (-50.0, 35.0)
 

@@ -717,7 +717,7 @@ def test_two_grader_processes_never_share_a_uid():
 
 
 # ---------------------------------------------------------------------------------------------
-# results written by student code (issue 9)
+# results written by student code are never taken for the grader's
 
 _SAVES_RESULTS = """
 import os

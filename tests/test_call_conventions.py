@@ -1,4 +1,4 @@
-"""Calls as the course makes them, and judgments refineF cannot fool (issue 9).
+"""Calls as the course makes them, and judgments refineF cannot fool.
 
 - Q2 is judged also with refineF switched off inside the sandbox: a polished transposed F (design
   matrix of F^T, then refineF, then unscale) loses the exact-F check, a valid refined one keeps it.

@@ -1,4 +1,4 @@
-"""The grader fails closed (issue 10): never weaker isolation than it claims, and a canary first.
+"""The grader fails closed: never weaker isolation than it claims, and a canary first.
 
 Deployment shapes reproduced here (see ../shared/FIELD-NOTES.md):
 

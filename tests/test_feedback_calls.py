@@ -1,4 +1,4 @@
-"""A failed call's feedback says how the function was called, never with the hidden values (issue 9).
+"""A failed call's feedback says how the function was called, never with the hidden values.
 
 For each graded function of the hidden checks (eightpoint's Q2 aside: test_fundamental.py has its
 own), a student function that raises, and one that returns something malformed, are graded in

@@ -1,4 +1,4 @@
-"""Q2's goals hold under every secret (issue 9): valid methods keep full Q2, mistakes lose it.
+"""Q2's goals hold under every secret: valid methods keep full Q2, mistakes lose it.
 
 For each secret (CI's 4, the release sweep's 20: tests/breadth.py) the hidden Q2 inputs are prepared as the grader prepares them
 (``autograder.hidden.cases.fundamental.prepare_fundamental`` on the hidden scenes of

@@ -1,4 +1,4 @@
-"""Hidden scenes are drawn per submission (issue 10, "No exfiltration").
+"""Hidden scenes are drawn per submission: hidden inputs a submission copies out are no use to another.
 
 Each submission is graded on its own draw of the hidden scenes, seeded by the grader's secret and
 a digest of the code the grader runs (``autograder.hidden.inputs.code_salt``): the same code

@@ -1,4 +1,4 @@
-"""Q4.1 judged on the easy points, Q4.2 on the 3D structure (issues 16 and 29).
+"""Q4.1 judged on the easy points, Q4.2 on the 3D structure, whatever the hand-in's matcher style.
 
 Matchers written the ways hand-ins write them (not the kit's reference) must get full Q4.1 and
 Q4.2 marks on hidden draws of several secrets and on the public self-check; wrong matchers must
@@ -134,7 +134,7 @@ def _snippet(source):
 
 
 WRONG = {"returns (x1, y1)": returns_the_point, "x and y swapped": swaps_x_and_y, "searches its row": searches_its_row}
-# The slips whose partial credit kept most of Q4.1 (issue 29): must keep at most half of it.
+# The slips whose partial credit once kept most of Q4.1: must keep at most half of it.
 HALF = {"searches F^T x1": _snippet(realstyles.snippets.EC_WRONG_LINE),
         "rows y1 +- 10 only": _snippet(realstyles.snippets.EC_SMALL_BOX)}
 

@@ -1,4 +1,4 @@
-"""Real students' styles are graded as the handout says (issue 16): tests/realstyles under the
+"""Real students' styles are graded as the handout says: tests/realstyles under the
 grader, in process under the secrets of the sweep and through the CLI, and under the public
 self-checks.
 

@@ -1,4 +1,4 @@
-"""refineF switched off, faithfully, by every route, the same in the self-check and the grader (issue 16).
+"""refineF switched off, faithfully, by every route, the same in the self-check and the grader.
 
 - Switched off, refineF keeps its contract: it accepts what it accepts switched on (F as 3x3 or any
   9 numbers) and returns the closest rank-2 matrix to F at unit norm, (3, 3) float; only the

@@ -1,4 +1,4 @@
-"""What a submission leaves behind (issue 17): within its sandbox, one question's leak never costs
+"""What a submission leaves behind: within its sandbox, one question's leak never costs
 another question; on the machine, the ``uid`` level leaves nothing and keeps concurrent
 submissions apart.
 

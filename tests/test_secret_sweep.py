@@ -1,4 +1,4 @@
-"""Grades do not depend on the secret beyond noise (issue 9): the corpus graded under many secrets.
+"""Grades do not depend on the secret beyond noise: the corpus graded under many secrets.
 
 For each secret, the hidden inputs of ``quick_config(secret=...)`` are built once
 (``autograder.hidden.inputs.build_hidden_inputs``: the batch's inputs, which every program of
@@ -464,7 +464,7 @@ def test_each_program_runs_only_what_its_difference_reaches():
 
 
 # ---------------------------------------------------------------------------------------------
-# outside the homework: NumPy 1 code (issue 9)
+# outside the homework: NumPy 1 code, whose removed aliases fail the same under every secret
 
 @pytest.mark.parametrize("name, replacement", [("float", "float"), ("int", "int"), ("object", "object"),
                                                ("Inf", "np.inf"), ("NaN", "np.nan"), ("infty", "np.inf"),

@@ -206,7 +206,7 @@ CASES: dict[str, Case] = {
         base="student", zero=True),
     "prints_fake_results_zero": Case(
         lambda nbs, ctx: append_cell(nbs, "q2_eightpoint", hostile.PRINTS_FAKE_RESULTS), base="student", zero=True),
-    # leaks between questions (issue 17): fds 1 and 2 sent to /dev/null through descriptors never
+    # one question's leaks must not cost the next: fds 1 and 2 sent to /dev/null through descriptors never
     # closed, another working folder, umask, environment, signal handler, warnings filter, stdout
     # replaced, on every call; before, the session ran out of descriptors ("Too many open files")
     # and the questions graded after that lost points they had earned

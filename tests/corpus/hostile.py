@@ -395,7 +395,7 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
 '''
 
 
-# --------------------------------------------------------------------------- leaks between questions (issue 17)
+# --------------------------------------------------------------------------- leaks between questions
 
 LEAKS_PROCESS_STATE = '''\
 import os

@@ -1,4 +1,4 @@
-"""Hand-ins in real students' styles (issue 16), each with the verdict the handout supports.
+"""Hand-ins in real students' styles, each with the verdict the handout supports.
 
 The kit's own corpus (tests/corpus) is the answer key with one mutation: it follows the grader's
 conventions.  This corpus follows the students'.  A study of public 16-720 HW4 hand-ins (see the
