@@ -265,7 +265,7 @@ def MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres):
     return _key_MultiviewReconstruction(C1, pts1, C2, pts2, C3, pts3, Thres - 0.5)
 '''
 
-# --------------------------------------------------------------------------- self-check variants: the mistakes named through refineF
+# --------------------------------------------------------------------------- self-check variants via refineF
 # Cells as a student would write them in the notebook, where ``refineF`` is the name imported
 # by the notebook's import cell: the self-checks must name each mistake also when refineF is
 # called (it polishes a transposed F into a near miss and returns rank 2 whatever it is given),
@@ -389,7 +389,7 @@ EIGHTPOINT_HARTLEY_REFINED = EIGHTPOINT_HARTLEY.replace(
     "    F = refineF(U @ np.diag([S[0], S[1], 0.0]) @ Vt, h1[:, :2], h2[:, :2])\n    F = T2.T @ F @ T1\n")
 assert EIGHTPOINT_HARTLEY_REFINED != EIGHTPOINT_HARTLEY
 
-# --------------------------------------------------------------------------- call conventions: the course's int coordinates and float images
+# --------------------------------------------------------------------------- the course's call conventions
 # Matchers written for the course's call (Python int coordinates, float images in [0, 1]):
 # one slices its windows with the coordinates as given (a float coordinate raises TypeError),
 # one subtracts the windows in the images' own dtype (uint8 wraps around; floats are fine).
@@ -440,7 +440,7 @@ def compute3D_pts(temple_pts1, intrinsics, F, im1, im2):
     return P
 '''
 
-# --------------------------------------------------------------------------- returned values checked, each one
+# --------------------------------------------------------------------------- each returned value checked
 # Every value a function returns is judged against the points it returned itself: these return
 # right points with one inconsistent companion value, and must lose exactly the check of that value.
 WRAP_MULTIVIEW_MEAN_ERR = '''\
