@@ -400,7 +400,7 @@ class _Batch:
         # The result comes finished and stamped by the run: written as it is, with the pictures of
         # the public data it carries (feedback.html and figures/).
         level = (result.configuration or {}).get("isolation")
-        figures = figures_of(result.pictures)  # checked (and drawn if need be) outside the lock
+        figures = figures_of(result.pictures)  # the worker's record checked again, outside the lock
         folder = self.out / name
         with self.write_lock:
             if self.cancel.is_set():

@@ -1,4 +1,4 @@
-"""Pictures of what a student's code did on the PUBLIC data: run in the sandbox, drawn by the grader.
+"""Pictures of what a student's code did on the PUBLIC data: run in the sandbox, drawn by the grading worker.
 
 Never scored, never on hidden scenes.  The steps, each in the process allowed to do it:
 
@@ -7,7 +7,7 @@ Never scored, never on hidden scenes.  The steps, each in the process allowed to
    ``starter.checks.pictures.public_outputs`` runs with each student function replaced by a call
    through the sandbox session (``Student.outcome``/``map``), so student code runs only in the
    sandboxed child and what it returns arrives as ``core.wire`` data, decoded with the session's
-   size limits, then checked (``_checked``: str names, float arrays, ``LIMITS``).  A run with
+   size limits.  A run with
    refineF switched off (Q2's second call of eightpoint) is made in the child too, with the
    request's ``swap``; the child says how many times refineF was called in it, a count the
    session believes only as an int in a range (``CallOutcome.refineF_calls``), and the pictures
@@ -18,17 +18,22 @@ Never scored, never on hidden scenes.  The steps, each in the process allowed to
    wall-clock time have passed (code that waits instead of computing).  Each proxy carries the
    student's parameters as written (``signatures``, the checks' fixture; ``__signature__``), so
    the pictures module calls another year's findM2 or compute3D_pts as the checks do
-   (``judging.conventions``).  The answer is plain JSON: ``{"outputs": <wire>}`` or ``{"error":
-   "figure not drawn: ..."}``; nothing raised there reaches the grade.
-2. ``drawn(question, record)``, in the same worker (the grader's own process, which never runs
-   student code; a batch's ``--jobs`` workers draw in parallel): the outputs decoded again and
-   drawn (``starter.checks.pictures.draw``, trusted, calls no student code) -> ``{"picture":
-   {title, alt, png (base64), measures}}`` or ``{"error": ...}``, for the worker's results file.
+   (``judging.conventions``).  That decoding is the one crossing of the trust boundary: the
+   outputs are then checked once (``_checked``: str names, float64 arrays, at most
+   ``_MAX_ELEMENTS`` numbers an array, ``_MAX_TOTAL`` a question) and given back as those arrays
+   (a name -> array dict), or the sentence "figure not drawn: ...", or None (no picture of the
+   question); nothing raised there reaches the grade.
+2. ``picture_record(student, question)``, in the same worker (the grader's own process, which
+   never runs student code; a batch's ``--jobs`` workers draw in parallel): ``run_public``'s
+   checked arrays drawn as they are (``starter.checks.pictures.draw``, trusted, calls no student
+   code) -> ``{"picture": {title, alt, png (base64), measures}}`` or ``{"error": ...}``, the
+   record the worker writes to its results file.
 3. ``figures_of(raw)``, in the grader, on the record a result of the grading run carries
-   (``SubmissionResult.pictures``, with ``GradingRun(..., pictures=True)``): each record checked
-   again (known questions, a PNG of at most ``MAX_PNG`` bytes, bounded texts, finite measures;
-   ``outputs`` still to draw are drawn here) -> question -> ``Picture``, or the sentence "figure
-   not drawn: ...".
+   (``SubmissionResult.pictures``, with ``GradingRun(..., pictures=True)``): the worker's files
+   are read again, so each entry is checked again (known questions, a PNG of at most ``MAX_PNG``
+   bytes, bounded texts, finite measures) -> question -> ``Picture``, or the sentence "figure not
+   drawn: ...".  The grader draws nothing: an entry that is not a picture nor a sentence (outputs
+   to draw, from an old or hostile worker) is the sentence ``NOT_A_PICTURE``.
 
 Every sentence may quote the student (an exception's message): its writers escape it
 (``core.untrusted``).
@@ -43,19 +48,19 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from core import wire
-
-__all__ = ["LIMITS", "MAX_PNG", "NOT_DRAWN", "SECONDS", "OffRunFailed", "PictureFailed", "contract", "decode",
-           "draw_all", "drawn", "figures_of", "finite_measures", "measures_in_words", "run_public"]
+__all__ = ["MAX_PNG", "NOT_A_PICTURE", "NOT_DRAWN", "SECONDS", "OffRunFailed", "PictureFailed", "contract",
+           "figures_of", "finite_measures", "measures_in_words", "picture_record", "run_public"]
 
 NOT_DRAWN = "figure not drawn: "
+# An entry of the worker's record that is neither a picture nor a sentence (the outputs an old
+# worker sent to be drawn, or a hostile one): the grader draws nothing.
+NOT_A_PICTURE = f"{NOT_DRAWN}the grading worker sent no picture (the grader draws none itself)"
 SECONDS = 10.0          # CPU seconds of one call of a picture (times time_scale)
 _MAX_NAMES = 32         # arrays per question
 _MAX_NAME = 64          # characters of an array's name
 _MAX_ELEMENTS = 1_000_000   # numbers in one array (8 MB as float64)
 _MAX_TOTAL = 4_000_000      # numbers in one question's outputs
-LIMITS = wire.Limits(max_array_bytes=_MAX_ELEMENTS * 16, max_total_bytes=_MAX_TOTAL * 16, max_string=_MAX_NAME,
-                     max_items=_MAX_NAMES * 4, max_depth=4, max_ndim=4)
+_MAX_NDIM = 4               # dimensions of one array
 MAX_PNG = 2_000_000         # bytes of one drawn picture
 _MAX_TEXT = 4000            # characters of a title or an alt text
 _draw_lock = threading.Lock()   # matplotlib's state is the process's: a batch's threads draw one at a time
@@ -183,42 +188,76 @@ class _Proxies(Mapping):
         return len(self.names)
 
 
-def run_public(student, question: str, *, seconds: float = SECONDS, root=None, signatures=None) -> dict:
-    """The picture step of one question, as JSON-able data for the worker's results file.
+def run_public(student, question: str, *, seconds: float = SECONDS, root=None,
+               signatures=None) -> dict[str, np.ndarray] | str | None:
+    """The public outputs of one question, run through the sandbox and checked once (``_checked``).
 
     ``student``: the plugin's ``Student`` (or ``LocalStudent``): anything with ``outcome(name,
     *args, seconds=...)`` and ``map(name, inputs, args=..., seconds=..., budget=..., swap=...)``
     (``CallOutcome``s; with ``swap``, their ``refineF_calls``); a ``session`` attribute (the
     plugin's ``Student``) is called directly, under the CPU clock.  ``signatures``: name -> the
     student's ``judging.conventions.Signature`` as written, or None (the checks' fixture).  Returns
-    ``{"outputs": wire data}``, ``{"error": "figure not drawn: ..."}``, or ``{}`` when the
-    pictures module has no picture of ``question`` (NotImplementedError); never raises for what
-    the student's code does (a bug of the picture code is named as the grader's, its type only).
+    the checked outputs (str name -> float64 array, what ``starter.checks.pictures.draw`` takes),
+    the sentence "figure not drawn: ..." (``NOT_DRAWN``), or None when the pictures module has no
+    picture of ``question`` (NotImplementedError); never raises for what the student's code does
+    (a bug of the picture code is named as the grader's, its type only).
     """
     pictures = contract()
     proxies = _Proxies(student, pictures.FUNCTIONS.get(question, ()), seconds, signatures)
     try:
         outputs = pictures.public_outputs(question, proxies, root=root)
     except PictureFailed as exc:
-        return {"error": NOT_DRAWN + (proxies.failure or exc.sentence)}
+        return NOT_DRAWN + (proxies.failure or exc.sentence)
     except Exception as exc:  # noqa: BLE001 - the picture step never costs the grade
         if isinstance(exc, NotImplementedError) and proxies.failure is None:  # no picture designed: none shown
-            return {}
+            return None
         refused = getattr(pictures, "PictureRunError", ())
         if refused and isinstance(exc, refused):  # what came back cannot be drawn: the module says why
-            return {"error": NOT_DRAWN + str(exc)[:1000]}
+            return NOT_DRAWN + str(exc)[:1000]
         if proxies.failure is not None:
-            return {"error": NOT_DRAWN + proxies.failure}
-        return {"error": f"{NOT_DRAWN}the grader could not run this picture ({type(exc).__name__})"}
+            return NOT_DRAWN + proxies.failure
+        return f"{NOT_DRAWN}the grader could not run this picture ({type(exc).__name__})"
     # Outputs came back: the module went on without any call that failed (it says so in its picture).
     try:
-        return {"outputs": wire.encode(_checked(outputs))}
+        return _checked(outputs)
     except (ValueError, TypeError) as exc:
-        return {"error": f"{NOT_DRAWN}{exc}"}
+        return f"{NOT_DRAWN}{exc}"
+
+
+def picture_record(student, question: str, *, seconds: float = SECONDS, root=None, signatures=None) -> dict:
+    """The worker's record of one question's picture (``run_public``'s arguments), JSON-able:
+    ``{"picture": {title, alt, png (base64), measures}}``, ``{"error": "figure not drawn: ..."}``,
+    or ``{}`` when the pictures module has no picture of ``question``.  The arrays ``run_public``
+    checked are drawn as they are; never raises for what the student's code does."""
+    import base64
+
+    outputs = run_public(student, question, seconds=seconds, root=root, signatures=signatures)
+    if outputs is None:
+        return {}
+    figure = outputs if isinstance(outputs, str) else _draw(question, outputs, root)
+    if isinstance(figure, str):
+        return {"error": figure[:2000]}
+    return {"picture": {"title": str(figure.title), "alt": str(figure.alt), "measures": finite_measures(figure),
+                        "png": base64.b64encode(figure.png).decode("ascii")}}
+
+
+def _draw(question: str, outputs: dict[str, np.ndarray], root=None):
+    """``starter.checks.pictures.draw`` of checked outputs: its ``Picture``, or the sentence
+    "figure not drawn: ..." naming the drawing's failure as the grader's (its type only)."""
+    try:
+        with _draw_lock:
+            picture = contract().draw(question, outputs, root=root)
+        if not (isinstance(picture.png, bytes) and picture.png.startswith(b"\x89PNG")):
+            raise ValueError("draw returned no PNG")
+        return picture
+    except Exception as exc:  # noqa: BLE001 - a figure that cannot be drawn is a note, not a failure
+        return f"{NOT_DRAWN}the grader could not draw it ({type(exc).__name__})"
 
 
 def _checked(outputs) -> dict[str, np.ndarray]:
-    """``outputs`` as the contract says (str names -> float64 arrays), within ``LIMITS``; ValueError."""
+    """``outputs`` as the contract says (str names -> float64 arrays: at most ``_MAX_NAMES`` names of
+    ``_MAX_NAME`` characters, ``_MAX_ELEMENTS`` numbers in ``_MAX_NDIM`` dimensions an array,
+    ``_MAX_TOTAL`` in all); ValueError naming what is not."""
     if not isinstance(outputs, Mapping) or len(outputs) > _MAX_NAMES:
         raise ValueError(f"expected at most {_MAX_NAMES} named arrays, got {type(outputs).__name__}")
     out, total = {}, 0
@@ -231,8 +270,8 @@ def _checked(outputs) -> dict[str, np.ndarray]:
             arr = np.array(value, dtype=np.float64)
         except (TypeError, ValueError):
             raise ValueError(f"{name}: expected numbers") from None
-        if arr.ndim > LIMITS.max_ndim or arr.size > _MAX_ELEMENTS:
-            raise ValueError(f"{name}: expected at most {_MAX_ELEMENTS} numbers in {LIMITS.max_ndim} dimensions, "
+        if arr.ndim > _MAX_NDIM or arr.size > _MAX_ELEMENTS:
+            raise ValueError(f"{name}: expected at most {_MAX_ELEMENTS} numbers in {_MAX_NDIM} dimensions, "
                              f"got {arr.size} in {arr.ndim}")
         total += arr.size
         out[name] = arr
@@ -241,38 +280,8 @@ def _checked(outputs) -> dict[str, np.ndarray]:
     return out
 
 
-def decode(raw, questions=None) -> dict:
-    """The worker's ``pictures`` record, checked: question -> outputs (str -> float64 array) still
-    to draw, a ``Picture`` drawn by the worker, or the sentence why there is no figure.  Unknown questions and malformed entries are dropped or
-    turned into a sentence; never raises."""
-    if questions is None:
-        try:
-            questions = tuple(contract().QUESTIONS)
-        except ImportError:
-            return {}
-    out: dict[str, dict | str] = {}
-    if not isinstance(raw, Mapping):
-        return out
-    for q in questions:
-        entry = raw.get(q)
-        if not isinstance(entry, Mapping):
-            continue
-        if isinstance(entry.get("error"), str):
-            text = entry["error"][:2000]
-            out[q] = text if text.startswith(NOT_DRAWN) else NOT_DRAWN + text
-            continue
-        if "picture" in entry:
-            out[q] = _picture_of(q, entry["picture"])
-            continue
-        try:
-            out[q] = _checked(wire.decode(entry.get("outputs"), LIMITS))
-        except (wire.WireError, ValueError, TypeError) as exc:
-            out[q] = f"{NOT_DRAWN}what came back could not be read ({str(exc)[:200]})"
-    return out
-
-
 def _picture_of(question: str, data):
-    """The ``Picture`` a worker drew (``drawn``), checked; the sentence why not when it is malformed."""
+    """The ``Picture`` a worker drew (``picture_record``), checked; the sentence why not when it is malformed."""
     import base64
     import binascii
 
@@ -288,45 +297,31 @@ def _picture_of(question: str, data):
     return contract().Picture(question, title[:_MAX_TEXT], png, alt[:_MAX_TEXT], measures)
 
 
-def drawn(question: str, record: dict, root=None) -> dict:
-    """``record`` (``run_public``'s) with its outputs drawn: ``{"picture": {title, alt, png
-    (base64), measures}}`` or ``{"error": ...}`` (the record's own, or why it could not be drawn)."""
-    import base64
-
-    figure = draw_all(decode({question: record}, (question,)), root=root).get(question)
-    if figure is None:
-        return {}
-    if isinstance(figure, str):
-        return {"error": figure}
-    return {"picture": {"title": str(figure.title), "alt": str(figure.alt), "measures": finite_measures(figure),
-                        "png": base64.b64encode(figure.png).decode("ascii")}}
-
-
-def draw_all(decoded: Mapping, root=None) -> dict:
-    """question -> ``Picture`` (``starter.checks.pictures.draw`` of its outputs; one drawn already
-    stays) or the sentence "figure not drawn: ..." (the step's own, or the drawing's failure,
-    named as the grader's)."""
-    out: dict = {}
-    for q, outputs in decoded.items():
-        if not isinstance(outputs, Mapping):  # a sentence, or a Picture drawn already
-            out[q] = outputs
-            continue
-        try:
-            with _draw_lock:
-                picture = contract().draw(q, outputs, root=root)
-            if not (isinstance(picture.png, bytes) and picture.png.startswith(b"\x89PNG")):
-                raise ValueError("draw returned no PNG")
-            out[q] = picture
-        except Exception as exc:  # noqa: BLE001 - a figure that cannot be drawn is a note, not a failure
-            out[q] = f"{NOT_DRAWN}the grader could not draw it ({type(exc).__name__})"
-    return out
-
-
-def figures_of(raw, root=None) -> dict:
-    """``draw_all(decode(raw))``: question -> ``Picture`` or "figure not drawn: ..."; never raises
-    (no pictures module, or anything unexpected: no figures)."""
+def figures_of(raw, questions=None) -> dict:
+    """The worker's ``pictures`` record (``picture_record``'s entries by question), checked again:
+    question -> ``Picture`` or the sentence "figure not drawn: ..." (the worker's, escaped by its
+    writer, or why the entry could not be read; ``NOT_A_PICTURE`` for anything else, such as
+    outputs to draw: the grader draws nothing).  ``questions``: those read (default: the pictures
+    module's ``QUESTIONS``); unknown questions and entries that are not mappings are dropped.
+    Never raises (no pictures module, or anything unexpected: no figures)."""
     try:
-        return draw_all(decode(raw), root=root)
+        if questions is None:
+            questions = tuple(contract().QUESTIONS)
+        out: dict = {}
+        if not isinstance(raw, Mapping):
+            return out
+        for q in questions:
+            entry = raw.get(q)
+            if not isinstance(entry, Mapping):
+                continue
+            if isinstance(entry.get("error"), str):
+                text = entry["error"][:2000]
+                out[q] = text if text.startswith(NOT_DRAWN) else NOT_DRAWN + text
+            elif "picture" in entry:
+                out[q] = _picture_of(q, entry["picture"])
+            else:
+                out[q] = NOT_A_PICTURE
+        return out
     except Exception:  # noqa: BLE001 - pictures never cost the results
         return {}
 

@@ -33,8 +33,8 @@ def standin(monkeypatch):
 
 
 def _raw():
-    return {"Q2": step.run_public(LocalStudent({"eightpoint": hostile_eightpoint}), "Q2"),
-            "Q3.2": step.run_public(LocalStudent({"triangulate": good_triangulate}), "Q3.2")}
+    return {"Q2": step.picture_record(LocalStudent({"eightpoint": hostile_eightpoint}), "Q2"),
+            "Q3.2": step.picture_record(LocalStudent({"triangulate": good_triangulate}), "Q3.2")}
 
 
 @pytest.fixture(scope="module")

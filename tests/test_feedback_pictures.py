@@ -2,7 +2,8 @@
 
 ``autograder.pictures``: a student function's failure, a missing function, something that cannot
 be drawn or a drawing that breaks each cost that question's picture only ("figure not drawn: ...");
-what comes back from the worker is checked again (sizes, dtypes, questions).  The feedback page,
+what the student's functions return is checked once (sizes, dtypes) and drawn from the checked
+arrays in the worker; the grader checks the worker's record again and draws nothing.  The feedback page,
 Gradescope's picture tests and the class report's examples escape every student text, keep a
 picture no earlier than its question's checks and name no student.  (The browser and the real
 sandbox: tests/test_feedback_browser.py and tests/test_picture_step_sandbox.py.)
@@ -44,10 +45,13 @@ def hostile_eightpoint(pts1, pts2, M):
 
 
 def run(functions, question="Q2"):
-    return step.run_public(LocalStudent(functions), question)
+    """The worker's record of ``question``'s picture (``picture_record``), drawn in this process."""
+    return step.picture_record(LocalStudent(functions), question)
 
 
-def test_outputs_cross_as_wire_data_and_are_drawn():
+def test_checked_outputs_are_drawn_and_the_record_read_again():
+    outputs = step.run_public(LocalStudent({"triangulate": lambda *a: ([[1, 2, 3]] * 12, 0.5)}), "Q3.2")
+    assert set(outputs) == {"P"} and outputs["P"].dtype == np.float64 and outputs["P"].shape == (12, 3)
     raw = {"Q2": run({"eightpoint": good_eightpoint}), "Q3.2": run({"triangulate": good_triangulate}, "Q3.2")}
     raw = json.loads(json.dumps(raw))  # as the worker's results file carries it
     figures = step.figures_of(raw)
@@ -70,18 +74,17 @@ def test_a_failure_costs_the_picture_only_and_says_why(functions, says):
 
 
 def test_a_drawing_that_breaks_is_the_graders_note(monkeypatch):
-    raw = {"Q2": run({"eightpoint": good_eightpoint})}
-
     def broken(question, outputs, root=None):
         raise RuntimeError("boom")
 
     monkeypatch.setattr(picture_standin, "draw", broken)
+    raw = {"Q2": run({"eightpoint": good_eightpoint})}
+    assert raw == {"Q2": {"error": "figure not drawn: the grader could not draw it (RuntimeError)"}}
     assert step.figures_of(raw) == {"Q2": "figure not drawn: the grader could not draw it (RuntimeError)"}
 
 
 def test_the_worker_draws_and_the_grader_checks_the_drawing_again():
-    raw = {"Q2": step.drawn("Q2", run({"eightpoint": good_eightpoint})),
-           "Q3.2": step.drawn("Q3.2", run({"eightpoint": hostile_eightpoint}))}
+    raw = {"Q2": run({"eightpoint": good_eightpoint}), "Q3.2": run({"eightpoint": hostile_eightpoint}, "Q3.2")}
     assert set(raw["Q2"]) == {"picture"} and raw["Q3.2"]["error"].startswith("figure not drawn: ")
     figures = step.figures_of(json.loads(json.dumps(raw)))
     assert figures["Q2"].png.startswith(b"\x89PNG") and figures["Q2"].alt and figures["Q2"].question == "Q2"
@@ -91,22 +94,47 @@ def test_the_worker_draws_and_the_grader_checks_the_drawing_again():
         assert step.figures_of({"Q2": {"picture": bad}}) == {"Q2": "figure not drawn: the picture could not be read"}
 
 
-@pytest.mark.parametrize("entry", [
-    {"outputs": {"__dict__": {"F": wire.encode(np.ones((2000, 1000)))}}},     # too many numbers
-    {"outputs": {"__dict__": {"F": wire.encode(np.ones(3, dtype=complex))}}},  # not real numbers
-    {"outputs": {"__dict__": {"x" * 100: 1.0}}},                              # a name too long
-    {"outputs": {"__ndarray__": "not base64 npy"}},
-    {"outputs": "plain text"},
+@pytest.fixture
+def draws(monkeypatch):
+    """The questions the stand-in's ``draw`` is asked to draw, in order."""
+    asked, draw = [], picture_standin.draw
+
+    def noted(question, outputs, root=None):
+        asked.append(question)
+        return draw(question, outputs, root=root)
+
+    monkeypatch.setattr(picture_standin, "draw", noted)
+    return asked
+
+
+@pytest.mark.parametrize("outputs, says", [
+    ({"F": np.ones((2000, 1000))}, "F: expected at most 1000000 numbers"),
+    ({"F": np.ones(3, dtype=complex)}, "F: expected numbers, got complex128"),
+    ({"x" * 100: np.ones(3)}, "expected array names of 1 to 64 characters"),
+    ({"F": np.ones((1,) * 5)}, "F: expected at most 1000000 numbers in 4 dimensions"),
+    ("plain text", "expected at most 32 named arrays, got str"),
 ])
-def test_what_comes_back_is_checked_again(entry):
-    out = step.decode({"Q2": entry})
-    assert out["Q2"].startswith("figure not drawn: ")
+def test_what_comes_back_is_checked_once_and_not_drawn(monkeypatch, draws, outputs, says):
+    monkeypatch.setattr(picture_standin, "public_outputs", lambda question, functions, root=None: outputs)
+    said = step.run_public(LocalStudent({}), "Q2")
+    assert isinstance(said, str) and said.startswith(step.NOT_DRAWN + says), said
+    assert run({}) == {"error": said} and draws == []  # the worker's record: the sentence, nothing drawn
+
+
+def test_outputs_sent_for_the_grader_to_draw_are_not_drawn(draws):
+    # What an old (or a hostile) worker sent: well-formed outputs, which the grader once drew itself.
+    outputs = {"F": np.arange(9.0).reshape(3, 3)}
+    raw = {"Q2": {"outputs": wire.encode(outputs)}, "Q3.2": run({"triangulate": good_triangulate}, "Q3.2")}
+    raw = json.loads(json.dumps(raw))
+    figures = step.figures_of(raw)
+    assert figures["Q2"] == step.NOT_A_PICTURE and figures["Q2"].startswith("figure not drawn: ")
+    assert figures["Q3.2"].png.startswith(b"\x89PNG") and draws == ["Q3.2"]  # the worker's only
 
 
 def test_unknown_questions_and_junk_are_dropped():
-    assert step.decode({"Q9": {"error": "x"}, "Q2": 7}) == {}
-    assert step.decode("junk") == {}
-    assert step.decode({"Q2": {"error": "raw"}}) == {"Q2": "figure not drawn: raw"}
+    assert step.figures_of({"Q9": {"error": "x"}, "Q2": 7}) == {}
+    assert step.figures_of("junk") == {}
+    assert step.figures_of({"Q2": {"error": "raw"}}) == {"Q2": "figure not drawn: raw"}
 
 
 # ------------------------------------------------------------------------------------------------

@@ -51,10 +51,10 @@ def test_a_hanging_function_costs_its_picture_within_the_budget(monkeypatch):
         try:
             student = Student(session)
             start = time.monotonic()
-            q2 = step.run_public(student, "Q2", seconds=2.0)
+            q2 = step.picture_record(student, "Q2", seconds=2.0)
             took = time.monotonic() - start
-            q32 = step.run_public(student, "Q3.2", seconds=2.0)
-            again = step.run_public(student, "Q2", seconds=2.0)
+            q32 = step.picture_record(student, "Q3.2", seconds=2.0)
+            again = step.picture_record(student, "Q2", seconds=2.0)
         finally:
             session.close()
     assert q2["error"].startswith("figure not drawn: eightpoint"), q2

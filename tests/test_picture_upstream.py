@@ -35,8 +35,8 @@ def test_q42_falls_back_to_the_matcher_and_triangulate_and_names_them():
 
 
 def test_a_failing_triangulate_behind_q42_is_named_with_its_question():
-    record = step.run_public(LocalStudent({"compute3D_pts": _raises, "triangulate": _raises,
-                                           "epipolarCorrespondence": solutions.epipolarCorrespondence}), "Q4.2")
+    record = step.picture_record(LocalStudent({"compute3D_pts": _raises, "triangulate": _raises,
+                                               "epipolarCorrespondence": solutions.epipolarCorrespondence}), "Q4.2")
     assert record["error"].startswith(step.NOT_DRAWN + "compute3D_pts raised ValueError"), record
     assert "triangulate (Q3.2): triangulate raised ValueError" in record["error"], record
 

@@ -6,10 +6,10 @@ plugin orders the ``picture`` items last), one test per question of
 ``starter.checks.pictures.QUESTIONS``.  The student's functions run in the sandbox session of the
 checks, each call within ``autograder.pictures.SECONDS`` of CPU time, and are called by the
 parameters the student wrote (the checks' ``signatures``: another year's findM2 or
-compute3D_pts gets its year's call, as in the checks); what they return is drawn here
-(``autograder.pictures.drawn``: this process never runs student code).  Whatever they do, the
-test passes and records either the picture or the sentence "figure not drawn: ...".  It has no ``points`` marker:
-it never counts in the result.
+compute3D_pts gets its year's call, as in the checks); what they return is checked once and
+drawn here from the checked arrays (``autograder.pictures.picture_record``: this process never
+runs student code).  Whatever they do, the test passes and records either the picture or the
+sentence "figure not drawn: ...".  It has no ``points`` marker: it never counts in the result.
 
 The step runs in a fresh child of the session (``public_student``): the child of the checks was
 given hidden scenes, and code that kept one could otherwise show it on the student's own page.
@@ -17,7 +17,7 @@ given hidden scenes, and code that kept one could otherwise show it on the stude
 
 import pytest
 
-from autograder.pictures import contract, drawn, run_public
+from autograder.pictures import contract, picture_record
 
 
 def _questions() -> tuple[str, ...]:
@@ -42,7 +42,7 @@ def test_picture(question, request):
     if not config.getoption("--pictures"):
         pytest.skip("pictures were not asked for (--pictures)")
     student = request.getfixturevalue("public_student")
-    record = run_public(student, question, signatures=request.getfixturevalue("signatures"))
+    # Drawn here, in this worker (the grader's own process; student code ran in the sandbox).
+    record = picture_record(student, question, signatures=request.getfixturevalue("signatures"))
     if record:  # {}: no picture of this question in the pictures module
-        # Drawn here, in this worker (the grader's own process; student code ran in the sandbox).
-        config.hw4.pictures[question] = drawn(question, record)
+        config.hw4.pictures[question] = record
