@@ -3,12 +3,17 @@
 README.md is under 12 KB and links every page of docs/; every relative link of README.md,
 CHANGELOG.md and docs/*.md names a file that exists (and, with ``#anchor``, a heading of that
 page); no page names this machine's checkout; every requirement has its reason in
-docs/dependencies.md.  The checkers are plain functions, each shown failing on a planted case.
+docs/dependencies.md; no comment or docstring of the kit's Python (its packages, tests/ and
+benchmarks/) names an issue number, but says the behaviour instead.  The checkers are plain
+functions, each shown failing on a planted case.
 """
 
 from __future__ import annotations
 
+import ast
+import io
 import re
+import tokenize
 from pathlib import Path
 
 import pytest
@@ -22,6 +27,9 @@ _FENCE = re.compile(r"^```.*?^```", re.S | re.M)
 _CODE = re.compile(r"`[^`\n]*`")
 _LINK = re.compile(r"\[[^\]\n]*\]\(([^)\s]+)\)")
 _HEADING = re.compile(r"^#{1,6}\s+(.+?)\s*$", re.M)
+# the word and a number, as in the planted case below: an issue's number means nothing once the
+# tracker moves or the issue is closed, while the behaviour it stood for is what a reader needs
+_ISSUE_NUMBER = re.compile(r"[Ii]ssues? #?[0-9]")
 
 
 def pages(root: Path) -> list[Path]:
@@ -79,6 +87,32 @@ def too_long(readme: Path) -> bool:
     return readme.stat().st_size >= README_LIMIT
 
 
+def python_files(root: Path) -> list[Path]:
+    """Every .py file of the kit's packages (the folders of ``root`` with an __init__.py), tests/
+    and benchmarks/ under ``root``."""
+    folders = [d for d in sorted(root.iterdir())
+               if (d / "__init__.py").is_file() or d.name in ("tests", "benchmarks")]
+    return [p for d in folders for p in sorted(d.rglob("*.py")) if "__pycache__" not in p.parts]
+
+
+def issue_numbers(path: Path) -> list[int]:
+    """Line numbers of ``path`` (Python source) where a comment or a docstring names an issue number
+    (the same words in other strings, as test data, are not looked at)."""
+    text = path.read_text(encoding="utf-8")
+    if not _ISSUE_NUMBER.search(text):
+        return []
+    found = {tok.start[0] for tok in tokenize.generate_tokens(io.StringIO(text).readline)
+             if tok.type == tokenize.COMMENT and _ISSUE_NUMBER.search(tok.string)}
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) \
+                    and isinstance(first.value.value, str):
+                doc = first.value.value
+                found.update(first.lineno + doc[:m.start()].count("\n") for m in _ISSUE_NUMBER.finditer(doc))
+    return sorted(found)
+
+
 def requirement_names(root: Path) -> list[str]:
     names = []
     for req in ("requirements.txt", "requirements-dev.txt"):
@@ -124,6 +158,14 @@ def test_no_page_names_the_development_checkout():
     assert not {k: v for k, v in found.items() if v}, f"pages naming {MACHINE_PATH} (line numbers): {found}"
 
 
+def test_no_comment_or_docstring_names_an_issue_number():
+    files = python_files(KIT_ROOT)
+    # tests/ and the packages are read
+    assert {"test_docs.py", "conftest.py", "plugin.py", "paths.py"} <= {p.name for p in files}
+    found = {str(p.relative_to(KIT_ROOT)): lines for p in files if (lines := issue_numbers(p))}
+    assert not found, f"comments or docstrings naming an issue number, not the behaviour (lines): {found}"
+
+
 def test_every_requirement_has_its_reason_in_the_dependencies_page():
     text = (KIT_ROOT / "docs" / "dependencies.md").read_text(encoding="utf-8").lower()
     names = requirement_names(KIT_ROOT)
@@ -166,3 +208,17 @@ def test_a_long_readme_is_caught(planted):
     assert not too_long(planted / "README.md")
     (planted / "README.md").write_text("x" * README_LIMIT)
     assert too_long(planted / "README.md")
+
+
+def test_an_issue_number_in_a_comment_or_a_docstring_is_caught(tmp_path):
+    sound = tmp_path / "sound.py"
+    sound.write_text('"""Grades do not depend on the secret."""\n\n# why: the draws are seeded\n'
+                     'NOTE = "issue 9 in a string that is data"\n')
+    assert issue_numbers(sound) == []
+    planted = tmp_path / "planted.py"
+    planted.write_text('"""Hidden scenes are drawn per submission\n(issue 10)."""\n\n'
+                       'def f():\n    """Fixed (Issue #9)."""\n    return 1  # see issues 16 and 29\n')
+    assert issue_numbers(planted) == [2, 5, 6]
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "__init__.py").write_text("# issue 3\n")
+    assert [p.name for p in python_files(tmp_path)] == ["__init__.py"]
