@@ -16,7 +16,7 @@ import pytest
 from autograder.review.__main__ import main
 from autograder.review.fingerprint import fingerprint_function
 from autograder.review.reader import SubmissionCode, functions_in_source, read_submission
-from autograder.review.similarity import FLAG, MIN_SHARED, compare, groups
+from autograder.review.similarity import FLAG, MIN_SHARED, compare, given_hashes, groups
 from tests.corpus import variants
 
 CORPUS = Path(__file__).parent / "review_corpus"
@@ -54,7 +54,14 @@ def _as_notebook(py: Path, folder: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def comparisons(tmp_path_factory):
+def given() -> set[int]:
+    """The handout's code hashes (compare's default ``given``), made once for the module: each
+    ``compare`` would otherwise fingerprint the stubs and the starter package again (about 2 s)."""
+    return given_hashes()
+
+
+@pytest.fixture(scope="module")
+def comparisons(tmp_path_factory, given):
     tmp = tmp_path_factory.mktemp("class")
     subs = []
     for k, py in enumerate(sorted(CORPUS.glob("*.py"))):
@@ -74,7 +81,7 @@ def comparisons(tmp_path_factory):
     assert {s.name for s in subs} >= {"alice", "copy_mixed", "eve", "key"}
     for s in subs[:-len(KIT_STUDENTS)]:
         assert s.name == "copy_mixed" or {"eightpoint", "essentialMatrix", "triangulate"} <= set(s.functions), s
-    return compare(subs, functions=list(PLANTED))
+    return compare(subs, given, functions=list(PLANTED))
 
 
 @pytest.mark.parametrize("function", list(PLANTED))
@@ -118,17 +125,17 @@ def test_renaming_reordering_and_comments_leave_the_fingerprints_unchanged():
     assert fingerprint_function(e1).hashes != fingerprint_function(e2).hashes
 
 
-def test_identical_one_liners_are_too_short_to_flag():
+def test_identical_one_liners_are_too_short_to_flag(given):
     one = "def essentialMatrix(F, K1, K2):\n    return K2.T @ F @ K1\n"
     subs = [SubmissionCode(n, {f.name: f for f in functions_in_source(one, n)}) for n in ("s1", "s2")]
-    comp = compare(subs, functions=["essentialMatrix"])["essentialMatrix"]
+    comp = compare(subs, given, functions=["essentialMatrix"])["essentialMatrix"]
     assert comp.jaccard[0, 1] == pytest.approx(1.0)
     assert all(not p.flagged for p in comp.ranked())
 
 
-def test_the_untouched_stubs_have_no_code_of_their_own(tmp_path):
+def test_the_untouched_stubs_have_no_code_of_their_own(given):
     subs = [read_submission(KIT_ROOT / "notebooks", name=n) for n in ("stub1", "stub2")]
-    comps = compare(subs)
+    comps = compare(subs, given)
     for comp in comps.values():
         assert comp.names == [] and comp.skipped == ["stub1", "stub2"]
 
@@ -173,13 +180,13 @@ def _key_copy(folder: Path, rename: bool) -> Path:
     return folder
 
 
-def test_five_copies_of_the_key_are_one_group_whatever_the_batch_shares(tmp_path):
+def test_five_copies_of_the_key_are_one_group_whatever_the_batch_shares(tmp_path, given):
     """Five copies of the whole answer key (two renamed) among honest students: the copies are the
     only code shared by every submission that defines most functions, and still one group."""
     copies = [read_submission(_key_copy(tmp_path / f"copy{k}", rename=k < 2)) for k in range(5)]
     assert copies[0].functions["eightpoint"].source != copies[2].functions["eightpoint"].source  # renamed
     honest = [read_submission(CORPUS / f"{n}.py") for n in ("alice", "bo", "chen", "dana")]
-    comps = compare(copies + honest)
+    comps = compare(copies + honest, given)
     names = {s.name for s in copies}
     found = groups(comps)
     assert len(found) == 1 and set(found[0].members) == names, found
@@ -222,10 +229,10 @@ def _filled_stubs(folder: Path, answers: Path) -> Path:
     return folder
 
 
-def test_a_batch_that_only_filled_the_stubs_differently_flags_nothing(tmp_path):
+def test_a_batch_that_only_filled_the_stubs_differently_flags_nothing(tmp_path, given):
     subs = [read_submission(_filled_stubs(tmp_path / n, CORPUS / f"{n}.py")) for n in ("alice", "bo", "chen", "dana")]
     assert all({"eightpoint", "essentialMatrix", "triangulate"} <= set(s.functions) for s in subs)
-    comps = compare(subs)
+    comps = compare(subs, given)
     assert sum(len(c.names) for c in comps.values()) >= 12  # their own code was compared, not skipped
     assert groups(comps) == [] and not any(p.flagged for c in comps.values() for p in c.ranked())
 
