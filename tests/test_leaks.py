@@ -24,6 +24,7 @@ Text is all these tests read: code that computes an answer in other words is fou
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import nbformat
@@ -173,6 +174,7 @@ def test_no_shipped_function_is_alike_to_a_reference_function_leak(shipped):
     assert found == [], "\n".join(f"{s:.2f} ({sh:.0f} shared): {a} ~ {b}" for s, a, b, sh in found)
 
 
+@functools.cache  # the same for every caller of the run: read, never changed
 def graded_answers() -> dict[str, Fingerprints]:
     """Each graded reference less the hashes of the student notebooks (the stubs give those)."""
     stubs = given_hashes(NOTEBOOKS_DIR, ())
@@ -189,13 +191,20 @@ def release_flags(given: set) -> dict[str, tuple[float, int, int]]:
     return out
 
 
-def test_no_graded_answer_is_held_by_the_release_as_a_whole_leak():
-    flagged = release_flags(release_given(notebooks=[]))
+@pytest.fixture(scope="module")
+def released() -> set:
+    """The plain hashes of the shipped packages (``release_given`` without the notebooks), made once
+    for the module: fingerprinting every shipped file is the costly part of these tests."""
+    return release_given(notebooks=[])
+
+
+def test_no_graded_answer_is_held_by_the_release_as_a_whole_leak(released):
+    flagged = release_flags(released)
     assert flagged == {}, "\n".join(f"{n}: score {s:.2f}, {sh} of its {size} fingerprints ship"
                                     for n, (s, sh, size) in flagged.items())
 
 
-def test_the_leak_scan_finds_a_reference_rewritten_into_helpers(tmp_path):
+def test_the_leak_scan_finds_a_reference_rewritten_into_helpers(tmp_path, released):
     """The twisted-pair case's linear triangulation as it once shipped (starter/checks): renamed,
     cut into helpers, none the reference alone; both readings find it."""
     pkg = tmp_path / "starter"
@@ -221,4 +230,6 @@ def lift(P, a, Q, b):
 ''')
     found = alike_pairs(shipped_functions([pkg], []), reference_functions())
     assert any("_stack" in a and b.startswith("solutions/triangulation.py:triangulate") for _, a, b, _ in found), found
-    assert "triangulate" in release_flags(release_given([*shipped_folders(), pkg], []))
+    # the release with the planted package: release_given is a union over files, so the shipped
+    # packages' hashes plus the planted file's are release_given([*shipped_folders(), pkg], [])
+    assert "triangulate" in release_flags(released | release_given([pkg], []))
