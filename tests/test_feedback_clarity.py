@@ -1,9 +1,12 @@
-"""Feedback that does not mislead (issue 16): a failed check says so in words, a repeated error is
+"""Feedback that does not mislead a student: a failed check says so in words, a repeated error is
 said once with a count, the catalogue names only what its test tells apart, a student's own
 definition of a given helper is noted, and NumPy 2's ragged-array error gets a hint.
 
 Hidden checks are graded in this process (``run_here`` on a ``LocalStudent``, the hidden inputs of
-the quick config) with the reference's functions and one function changed.
+the quick config) with the reference's functions and one function changed.  Those tests are in the
+full tier (marked slow): making the hidden inputs takes about 8 s, which the full run pays once for
+this file and tests/test_feedback_calls.py together (the suite's keep).  The self-check's side of
+most of them (no hidden inputs) stays in the fast tier.
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ def ragged_essential(F, K1, K2):
     return np.array([F[0], F[1, :2], F[2]], dtype=float)
 
 
+@pytest.mark.slow
 def test_ragged_array_error_gets_a_hint_in_the_hidden_feedback(hidden):
     tests = _graded(hidden, "essential", essentialMatrix=ragged_essential)
     text = "\n".join(t.feedback for t in tests.values())
@@ -72,6 +76,7 @@ def err_over_every_detection(C1, pts1, C2, pts2, C3, pts3, Thres):
     return P, err
 
 
+@pytest.mark.slow
 def test_err_over_unused_detections_is_not_called_not_the_sum_of_squares(hidden):
     tests = _graded(hidden, "multiview", MultiviewReconstruction=err_over_every_detection)
     t = tests["err is the total squared reprojection error of P over the detections used"]
@@ -79,6 +84,7 @@ def test_err_over_unused_detections_is_not_called_not_the_sum_of_squares(hidden)
     assert "not the sum of squares" not in t.feedback, t.feedback
 
 
+@pytest.mark.slow
 def test_err_hint_does_not_say_two_images_for_three_views(hidden):
     from corpus import variants
 
@@ -110,6 +116,7 @@ def own_rodrigues(r):
     return rodrigues(r).T
 
 
+@pytest.mark.slow
 def test_own_helper_is_noted_in_the_feedback_of_the_question_using_it(hidden):
     from solutions import bundle
 
@@ -142,6 +149,7 @@ def test_submission_notes_a_given_helper_it_defines(tmp_path):
 # a failed check says "failed" in words, and which part failed when its figure meets its goal
 
 
+@pytest.mark.slow
 def test_bundle_result_that_lost_its_shape_says_which_part_failed(hidden):
     from judging import bundle as jb
 
@@ -156,6 +164,7 @@ def test_bundle_result_that_lost_its_shape_says_which_part_failed(hidden):
     assert "failed (the error meets its goal, but the reconstruction lost its shape)" in v.sentence, v.sentence
 
 
+@pytest.mark.slow
 def test_every_failed_hidden_line_says_failed(hidden):
     def e_without_K(F, K1, K2):
         return K2.T @ F          # a K missing in E: every input fails
@@ -183,6 +192,7 @@ def test_failed_self_check_item_says_failed_beside_its_figure():
 # a repeated error is said once, with a count
 
 
+@pytest.mark.slow
 def test_the_same_error_on_every_input_is_one_line_with_a_count(hidden):
     def raises(pts1, pts2, M):
         raise ValueError("singular matrix")

@@ -1,4 +1,4 @@
-"""Every scene the kit shows or grades on lies inside the homework's envelope (scenes.envelope, issue 16).
+"""Every scene the kit shows or grades on lies inside the homework's envelope (scenes.envelope).
 
 Scenes: the default data's (scenes.defaults.default_temple), the public self-checks' (the generated
 temple and its K1 != K2 pair of starter/checks/_scenes.py), and the hidden draws of
@@ -178,6 +178,7 @@ def _windows_fit(im, xy) -> bool:
         and y - _HALF >= 0 and x - _HALF >= 0
 
 
+@pytest.mark.slow  # makes the hidden scenes of a draw (about 4 s): the full tier's, as the sweep above
 def test_a_101px_window_fits_around_every_chosen_point_of_the_hidden_draws():
     from autograder.hidden.cases.correspondence import matching_scenes, prepare_correspondence
     from autograder.hidden.scenes import make_scenes
