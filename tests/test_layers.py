@@ -9,6 +9,7 @@ function body counts like any other.  A second test looks for circles between mo
 from __future__ import annotations
 
 import ast
+import functools
 import sys
 from pathlib import Path
 
@@ -86,10 +87,22 @@ def imported_from(path: Path, node: ast.ImportFrom) -> str:
     return ".".join(package[: len(package) - node.level + 1] + ([node.module] if node.module else []))
 
 
+@functools.cache
+def _parsed(path: Path, stamp: tuple[int, int]) -> ast.Module:
+    return ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+def parsed(path: Path) -> ast.Module:
+    """``path``'s syntax tree, read once per run while the file is unchanged (its stamp: mtime, size):
+    the checks below read the same few hundred files three or four times."""
+    stat = path.stat()
+    return _parsed(path, (stat.st_mtime_ns, stat.st_size))
+
+
 def imports_of(path: Path) -> list[tuple[int, str]]:
     """(line, imported dotted name) for every import in the file, relative ones resolved."""
     found = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+    for node in ast.walk(parsed(path)):
         if isinstance(node, ast.Import):
             found += [(node.lineno, a.name) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -149,15 +162,21 @@ def violations(edges) -> list[str]:
     return bad
 
 
-def test_imports_only_go_down():
-    bad = violations(kit_edges())
+@pytest.fixture(scope="module")
+def edges() -> list[tuple[str, int, str, str]]:
+    """``kit_edges()`` of the kit, read once for the two tests that need them."""
+    return kit_edges()
+
+
+def test_imports_only_go_down(edges):
+    bad = violations(edges)
     assert not bad, "imports that go up a layer or sideways:\n" + "\n".join(bad)
 
 
-def _module_graph() -> dict[str, set[str]]:
+def _module_graph(edges) -> dict[str, set[str]]:
     modules = {module_name(p) for p in shipped_files()}
     graph: dict[str, set[str]] = {m: set() for m in modules}
-    for _, _, src, target in kit_edges():
+    for _, _, src, target in edges:
         # "from pkg import name" where name is not a module resolves to the package itself.
         while target and target not in modules:
             target = target.rpartition(".")[0]
@@ -166,8 +185,8 @@ def _module_graph() -> dict[str, set[str]]:
     return graph
 
 
-def test_no_circle_between_modules():
-    graph = _module_graph()
+def test_no_circle_between_modules(edges):
+    graph = _module_graph(edges)
     state: dict[str, int] = {}
     stack: list[str] = []
     circles: list[str] = []
@@ -221,7 +240,7 @@ def private_imports(paths) -> list[str]:
     bad = []
     for path in paths:
         mod = module_name(path)
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        for node in ast.walk(parsed(path)):
             if not isinstance(node, ast.ImportFrom):
                 continue
             target = imported_from(path, node)
