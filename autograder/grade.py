@@ -44,8 +44,8 @@ def run_session(pool, submission: Path, *, folder: Path, options: Sequence[str],
 (``autograder.workers.WorkerPool``).
 
     ``folder``: the run's private folder (0700), where this session's files live and are removed
-    after; ``options``: the run's plugin options (``--grading-config``, ``--hidden-cache``,
-    ``--sandbox-spec``, ``--stamp``, ``--student-id=``, ``--budget``); ``timeout``: seconds
+    after; ``options``: the run's plugin options (``--hidden-cache``, which holds the run's
+    configuration and record, ``--sandbox-spec``, ``--student-id=``, ``--budget``); ``timeout``: seconds
     before the worker is given up on; ``pictures``: the unscored picture step runs after the checks
     (``--pictures``) and the result carries its record (``SubmissionResult.pictures``: question ->
     the picture the worker drew, or the sentence why not; None when not asked for).  Raises RuntimeError when the session itself broke (the

@@ -11,10 +11,12 @@ the nbgrader course (``autograder.nbgrader_grade``) each make one ``GradingRun``
 A run owns, for its whole life:
 
 - the configuration (``GradingConfig``) and its record (``autograder.config.configuration``),
-  which the hidden plugin stamps on every result (``--stamp``) with the sandbox level and the
-  submission's draw, so a result is built once, by the plugin, and never amended;
+  which the hidden plugin stamps on every result with the sandbox level and the submission's
+  draw, so a result is built once, by the plugin, and never amended;
 - the hidden inputs and their cache (a private 0700 folder of the grader's, hidden from
-  student code, with the run's config.json and stamp.json written once), and the keep that
+  student code, written once): the inputs, which hold the configuration, saved with the record
+  in one file (``autograder.hidden.inputs.save``), so the plugin, given ``--hidden-cache`` alone,
+  reads the one configuration of the run from one place; and the keep that
   holds them and the draws between runs when one is named (``autograder.hidden.keep``);
 - the sandboxes (one per concurrent grading, opened when first needed, each hiding the same one
   list: ``hidden_paths``), and the grading workers (``autograder.workers.WorkerPool``);
@@ -177,7 +179,7 @@ class GradingRun:
         return self
 
     def make_inputs(self) -> HiddenInputs:
-        """The hidden inputs, made (once) and written into the run's private cache folder."""
+        """The hidden inputs, made (once) and written with the run's ``record`` into its private cache folder."""
         if self._cache is not None:
             return self.hidden
         try:
@@ -188,9 +190,7 @@ class GradingRun:
             folder, fd = leftovers.owned_folder("hw4-hidden-")  # 0700; a sweep removes it if we are killed
             self._cache, self._cache_fd = folder, fd
             atexit.register(self._release_cache)
-            inputs.save(self.hidden, folder)
-            (folder / "config.json").write_text(json.dumps(self.hidden.config.to_dict()))
-            (folder / "stamp.json").write_text(json.dumps(self.record, default=str))
+            inputs.save(self.hidden, folder, record=self.record)
             self.pool.warm()  # its imports overlap the rest of the set-up
         except BaseException:
             self.close()
@@ -288,8 +288,9 @@ class GradingRun:
             return self.failed(late, student_id=student_id or path.name)
         limits = box.limits
         budget = budget_of(self.hidden, limits, deadline)
-        options = ["--grading-config", str(self._cache / "config.json"), "--hidden-cache", str(self._cache),
-                   "--sandbox-spec", str(self._spec(box)), "--stamp", str(self._cache / "stamp.json"),
+        # The cache describes itself (the inputs, their config and the run's record): no other
+        # option names a configuration the session could read differently.
+        options = ["--hidden-cache", str(self._cache), "--sandbox-spec", str(self._spec(box)),
                    f"--student-id={student_id or path.name}", "--budget", repr(budget),
                    *(["--secret-scenes"] if secret_scenes else []),
                    *(["--keep", str(self.keep.folder)] if self.keep is not None else [])]

@@ -5,10 +5,15 @@ run's picture step: its record comes back on the result when asked for, never fo
 
 from __future__ import annotations
 
+import dataclasses
+import os
+
 import pytest
 
 from autograder import run as run_module
-from autograder.config import quick_config
+from autograder.config import configuration, quick_config
+from autograder.config import tests_fingerprint as checks_fingerprint  # not a test of its own
+from autograder.hidden import inputs
 from autograder.pictures import figures_of
 from autograder.results import SubmissionResult
 from autograder.run import GradingRun
@@ -30,9 +35,16 @@ def test_one_run_grades_two_submissions_with_one_set_up(tmp_path, monkeypatch):
     sessions = []  # (student id option, pictures asked for) of each pytest session
     real_session = run_module.run_session
 
+    caches = []  # (options naming a configuration, json files, the saved run) of each session's cache
+
     def session(pool, submission, **kw):
         sessions.append((next(o for o in kw["options"] if o.startswith("--student-id=")), kw.get("pictures"),
                          "--secret-scenes" in kw["options"]))
+        folder = kw["folder"]
+        caches.append(({"--grading-config", "--stamp"} & set(kw["options"]),
+                       sorted(p.name for p in folder.glob("*.json") if not p.name.startswith("sandbox-")),
+                       inputs.load_saved(folder)))
+        assert kw["options"][kw["options"].index("--hidden-cache") + 1] == str(folder)
         return real_session(pool, submission, **kw)
 
     monkeypatch.setattr(run_module, "run_session", session)
@@ -56,6 +68,14 @@ def test_one_run_grades_two_submissions_with_one_set_up(tmp_path, monkeypatch):
         stamp = result.configuration
         assert stamp["key"] == run.record["key"] and stamp["isolation"] == result.isolation["level"]
         assert stamp["draw"] and result.execution_time > 0
+        # Stamped with the run's record as it is, plus the level and the draw only.
+        assert stamp == {**run.record, "isolation": result.isolation["level"], "draw": stamp["draw"]}
+    # The worker reads the configuration from one place: the cache, whose one file holds the
+    # inputs (with their config) and the run's record; no config or stamp file beside them.
+    assert len(caches) == 3
+    for named, json_files, saved in caches:
+        assert named == set() and json_files == []
+        assert saved.record == run.record and saved.hidden.config == run.hidden.config
     assert first.configuration["draw"] != second.configuration["draw"]  # each its own hidden draw
     # The picture step: the canary's session never ran it, the run's default did, the call's False did not.
     assert [asked for _, asked, _ in sessions] == [False, True, False]
@@ -68,3 +88,22 @@ def test_one_run_grades_two_submissions_with_one_set_up(tmp_path, monkeypatch):
     assert set(figures) == set(QUESTIONS) and all(not isinstance(f, str) for f in figures.values()), figures
     with pytest.raises(RuntimeError, match="closed"):
         run.grade(key)
+
+
+def test_a_run_cache_is_one_file_with_the_inputs_config_and_record(tmp_path):
+    # What a run's worker reads: one saved object, checked as the grader's own like the inputs were.
+    config = quick_config()
+    record = configuration(config, tests=checks_fingerprint())
+    folder = tmp_path / "cache"
+    inputs.save(inputs.HiddenInputs(config, None, {}), folder, record=record)
+    assert [p.name for p in folder.iterdir()] == [inputs.SAVED_NAME]
+    saved = inputs.load_saved(folder)
+    assert saved.record == record and saved.hidden.config == config
+    assert inputs.load(folder, config).config == config
+    with pytest.raises(ValueError, match="another config|of config"):
+        inputs.load(folder, dataclasses.replace(config, secret=config.secret + "-other"))
+    with pytest.raises(ValueError, match="record"):
+        inputs.save(saved.hidden, folder, record=["not", "a", "record"])
+    os.chmod(folder, 0o750)
+    with pytest.raises(ValueError, match="0700"):
+        inputs.load_saved(folder)

@@ -16,6 +16,10 @@ renders, the reference on them, about 2 s).  The canary grades the answer key on
 inputs themselves.  ``build_hidden_inputs(config, salt=...)`` is the draw of a salt in one call.
 Given a keep (``autograder.hidden.keep``), both are read back when the same kit made them before
 under the same settings, and kept when made.
+
+A saved folder describes itself: the inputs hold their ``GradingConfig``, and a grading run saves
+its configuration record (``autograder.config.configuration``) with them, in the same file
+(``load_saved``), so a grading session reads the one configuration of its run from one place.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from __future__ import annotations
 import ast
 import dataclasses
 import hashlib
+import json
 import os
 import pickle
 import stat
@@ -36,9 +41,10 @@ from .cases import call_seconds, draw_all, prepare_all, with_fixed
 from .keep import Keep
 from .scenes import Scenes, make_scenes
 
-__all__ = ["HiddenInputs", "build_hidden_inputs", "code_salt", "draw", "load", "save"]
+__all__ = ["SAVED_NAME", "HiddenInputs", "Saved", "build_hidden_inputs", "code_salt", "draw", "load", "load_saved",
+           "save"]
 
-_FILE = "hidden-inputs.pickle"
+SAVED_NAME = "hidden-inputs.pickle"  # the one file ``save`` writes into its folder
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,18 +134,63 @@ def _normalised(source: str) -> str:
         return "\n".join(line.rstrip() for line in source.strip().splitlines())
 
 
-def save(hidden: HiddenInputs, folder: Path) -> Path:
-    """Write ``hidden`` (without the scenes, which the checks do not need) into ``folder``, made 0700."""
+@dataclass(frozen=True, eq=False)
+class Saved:
+    """What ``save`` wrote into a folder: the inputs (``hidden``, without scenes; their ``config``
+    is the configuration they were made under) and the configuration record the results of the
+    run are stamped with (``record``: plain JSON, ``autograder.config.configuration``; None when
+    saved without one, as a Gradescope bundle's inputs are)."""
+
+    hidden: HiddenInputs
+    record: dict | None = None
+
+
+def save(hidden: HiddenInputs, folder: Path, *, record: dict | None = None) -> Path:
+    """Write ``hidden`` (without the scenes, which the checks do not need) and ``record`` (the run's
+    configuration record, taken through JSON as a result carries it) into ``folder``, made 0700:
+    one file, so the folder cannot hold a record of one configuration and inputs of another.
+
+    Raises
+    ------
+    ValueError
+        When ``record`` is neither None nor a dict.
+    """
+    if record is not None and not isinstance(record, dict):
+        raise ValueError(f"record: expected a configuration record (dict) or None, got {type(record).__name__}")
+    saved = Saved(dataclasses.replace(hidden, scenes=None),
+                  json.loads(json.dumps(record, default=str)) if record is not None else None)
     folder = Path(folder)
     folder.mkdir(mode=0o700, parents=True, exist_ok=True)
     os.chmod(folder, 0o700)
-    path = folder / _FILE
-    tmp = folder / (_FILE + ".tmp")
+    path = folder / SAVED_NAME
+    tmp = folder / (SAVED_NAME + ".tmp")
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "wb") as fh:
-        pickle.dump(dataclasses.replace(hidden, scenes=None), fh, protocol=pickle.HIGHEST_PROTOCOL)
+        pickle.dump(saved, fh, protocol=pickle.HIGHEST_PROTOCOL)
     os.replace(tmp, path)
     return path
+
+
+def load_saved(folder: Path) -> Saved:
+    """The inputs and record ``save`` wrote into ``folder`` (the configuration is the inputs').
+
+    Raises
+    ------
+    ValueError
+        When the folder is not the grader's own (owner, mode 0700) or its file is not what ``save`` writes.
+    """
+    folder = Path(folder)
+    st = folder.stat()
+    if st.st_uid != os.geteuid() or stat.S_IMODE(st.st_mode) & 0o077:
+        raise ValueError(f"hidden cache: expected a folder of this user with mode 0700, got {folder} "
+                         f"(uid {st.st_uid}, mode {stat.S_IMODE(st.st_mode):o})")
+    with open(folder / SAVED_NAME, "rb") as fh:
+        saved = pickle.load(fh)  # noqa: S301 - the grader's own file in its own 0700 folder
+    if not isinstance(saved, Saved) or not isinstance(saved.hidden, HiddenInputs) or not (
+            saved.record is None or isinstance(saved.record, dict)):
+        raise ValueError(f"hidden cache: expected the inputs saved by inputs.save in {folder}, "
+                         f"got {type(saved).__name__}")
+    return saved
 
 
 def load(folder: Path, config: GradingConfig) -> HiddenInputs:
@@ -148,15 +199,10 @@ def load(folder: Path, config: GradingConfig) -> HiddenInputs:
     Raises
     ------
     ValueError
-        When the folder is not the grader's own (owner, mode 0700) or holds inputs of another config.
+        When the folder is not the grader's own (owner, mode 0700), is not what ``save`` writes or
+        holds inputs of another config.
     """
-    folder = Path(folder)
-    st = folder.stat()
-    if st.st_uid != os.geteuid() or stat.S_IMODE(st.st_mode) & 0o077:
-        raise ValueError(f"hidden cache: expected a folder of this user with mode 0700, got {folder} "
-                         f"(uid {st.st_uid}, mode {stat.S_IMODE(st.st_mode):o})")
-    with open(folder / _FILE, "rb") as fh:
-        hidden = pickle.load(fh)  # noqa: S301 - the grader's own file in its own 0700 folder
-    if not isinstance(hidden, HiddenInputs) or hidden.config.fingerprint() != config.fingerprint():
+    hidden = load_saved(folder).hidden
+    if hidden.config.fingerprint() != config.fingerprint():
         raise ValueError(f"hidden cache: expected inputs of config {config.fingerprint()[:12]}, got others")
     return hidden

@@ -18,14 +18,18 @@ A test that passes earns its points (times ``score.fraction`` when given); one t
 error is the grader's: zero with "internal error" for the student and the traceback for staff.
 ``score.record(...)`` lets a test report finished ``TestResult``/``QuestionResult`` objects.
 
-Options used by the grader (``autograder.run``): ``--hidden-cache`` (the run's hidden inputs,
-made once; each submission gets its own draw of them, ``autograder.hidden.inputs.draw``, and its
-result names the draw by a short digest, ``configuration["draw"]``), ``--sandbox-spec`` (the grader's sandbox, not probed again), ``--results`` (the
-``SubmissionResult`` as JSON, with what staff should see), ``--student-id``, ``--budget`` (the
-run's, ``autograder.budget``), ``--stamp`` (the run's configuration record: the result is
-written finished and stamped here, never amended by the grader), ``--pictures`` (after the
+Options used by the grader (``autograder.run``): ``--hidden-cache`` (the run's folder, saved by
+``autograder.hidden.inputs.save``: the hidden inputs made once, their ``GradingConfig``, and the
+run's configuration record; the session's one configuration, so no config file is given with it;
+each submission gets its own draw of the inputs, ``autograder.hidden.inputs.draw``, and the result
+is written finished here, stamped with the record, the sandbox level and the draw's short digest,
+``configuration["draw"]``, never amended by the grader), ``--sandbox-spec`` (the grader's sandbox,
+not probed again), ``--results`` (the ``SubmissionResult`` as JSON, with what staff should see),
+``--student-id``, ``--budget`` (the run's, ``autograder.budget``), ``--pictures`` (after the
 checks, the unscored picture step of ``test_pictures.py``; its record goes into the results file
-as ``pictures``, for ``autograder.pictures.decode``).
+as ``pictures``, for ``autograder.pictures.decode``).  By hand, without ``--hidden-cache``, the
+configuration is ``--grading-config`` (else ``$HW4_GRADER_CONFIG``, else the defaults), the
+inputs are made in the session and the result records the draw only.
 """
 
 from __future__ import annotations
@@ -50,7 +54,7 @@ __all__ = ["HIDDEN_DIR", "CheckFailed", "Local", "config_of", "run_here", "Local
 
 _OUTPUT_KEPT = 8000
 HIDDEN_DIR = Path(__file__).resolve().parent
-_loaded: dict = {}          # hidden inputs loaded by this process, by (folder, config fingerprint)
+_loaded: dict = {}          # the run cache this process loaded (inputs.Saved), by the folder and its file
 _drawn: dict = {}           # this process's last draws: (id of the batch's inputs, salt) -> (batch, draw)
 _DRAWS_KEPT = 4
 
@@ -301,14 +305,15 @@ class RunState:
 def pytest_addoption(parser):
     g = parser.getgroup("hw4", "hidden checks of the homework")
     g.addoption("--submission", default=None, help="the submission to grade (folder or .zip of notebooks)")
-    g.addoption("--grading-config", default=None, help="grader settings (JSON; default: $HW4_GRADER_CONFIG)")
-    g.addoption("--hidden-cache", default=None, help="folder (0700) with the batch's hidden inputs")
+    g.addoption("--grading-config", default=None,
+                help="grader settings by hand (JSON; default: $HW4_GRADER_CONFIG); not with --hidden-cache")
+    g.addoption("--hidden-cache", default=None,
+                help="the run's folder (0700): the batch's hidden inputs, their config and the run's record")
     g.addoption("--sandbox-spec", default=None, help="JSON of the grader's sandbox (Sandbox.describe)")
     g.addoption("--isolation", default="auto", help="sandbox level when no --sandbox-spec is given")
     g.addoption("--results", default=None, help="write the SubmissionResult (JSON) here")
     g.addoption("--student-id", default=None, help="the gradebook name of the submission")
     g.addoption("--budget", type=float, default=None, help="seconds for the whole submission (default: from the checks)")
-    g.addoption("--stamp", default=None, help="JSON of the run's configuration record, stamped on the result")
     g.addoption("--keep", default=None, help="the run's keep folder (autograder.hidden.keep): draws made before")
     g.addoption("--secret-scenes", action="store_true", default=False,
                 help="grade on the batch's own inputs (the scenes of the secret alone), not on the submission's "
@@ -321,14 +326,41 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "points(value, question, name=None, visibility='visible'): "
                                        "what a hidden check is worth and which question it counts for")
     config.addinivalue_line("markers", "picture: the unscored picture step (autograder.pictures), run after every check")
+    if config.getoption("--hidden-cache", None) and config.getoption("--grading-config", None):
+        # The cache holds the configuration its inputs were made under: a second one could disagree.
+        raise pytest.UsageError("--grading-config: expected none with --hidden-cache (the cache holds "
+                                "its configuration)")
     config.hw4 = RunState()
 
 
+def _saved(config):
+    """The run's cache (``autograder.hidden.inputs.Saved``: inputs, their config, the run's record)
+    named by ``--hidden-cache``, or None.  A grading worker runs one session after another: each
+    run's folder is loaded once (``inputs.load_saved`` checks it is the grader's own)."""
+    cache = config.getoption("--hidden-cache", None)
+    if not cache:
+        return None
+    from autograder.hidden import inputs
+
+    folder = Path(cache).resolve()
+    st = (folder / inputs.SAVED_NAME).stat()
+    key = (str(folder), st.st_ino, st.st_mtime_ns, st.st_size)  # a closed run's folder name may come back
+    if key not in _loaded:
+        _loaded.clear()
+        _loaded[key] = inputs.load_saved(folder)
+    return _loaded[key]
+
+
 def config_of(config):
-    """The ``GradingConfig`` of a pytest run (known at collection: tests may be parametrized by it)."""
+    """The ``GradingConfig`` of a pytest run (known at collection: tests may be parametrized by it):
+    a ``Local`` plugin's inputs', else the run cache's (``--hidden-cache``), else by hand
+    ``--grading-config`` (``autograder.config.load_config``: the file, $HW4_GRADER_CONFIG, the defaults)."""
     local = _local(config)
     if local is not None and getattr(local, "hidden", None) is not None:
         return local.hidden.config
+    saved = _saved(config)
+    if saved is not None:
+        return saved.hidden.config
     from autograder.config import load_config
 
     return load_config(config.getoption("--grading-config"))
@@ -352,15 +384,8 @@ def hidden(request, grading_config):
     local = _local(request.config)
     if local is not None and getattr(local, "hidden", None) is not None:
         return local.hidden
-    cache = request.config.getoption("--hidden-cache")
-    if cache:
-        key = (str(Path(cache).resolve()), grading_config.fingerprint())
-        if key not in _loaded:  # a grading worker runs one session after another: load once
-            _loaded.clear()
-            _loaded[key] = inputs.load(Path(cache), grading_config)
-        batch = _loaded[key]
-    else:
-        batch = inputs.build_hidden_inputs(grading_config)
+    saved = _saved(request.config)
+    batch = saved.hidden if saved is not None else inputs.build_hidden_inputs(grading_config)
     if (batch.draw is not None or local is not None or not request.config.getoption("--submission")
             or request.config.getoption("--secret-scenes")):
         request.config.hw4.draw = batch.draw
@@ -625,15 +650,11 @@ def _spec_isolation(config) -> dict | None:
 
 
 def _stamp(config, isolation: dict | None, draw: str | None) -> dict | None:
-    """How this result was graded: the run's record (``--stamp``, ``autograder.config.configuration``)
-    with the sandbox level and the draw's digest; by hand, without a run, the draw only."""
-    path = config.getoption("--stamp", None)
-    record = None
-    if path:
-        try:
-            record = json.loads(Path(path).read_text())
-        except (OSError, ValueError):
-            record = None
+    """How this result was graded: the run's record (saved in ``--hidden-cache`` with the inputs,
+    ``autograder.config.configuration``) with the sandbox level and the draw's digest; by hand,
+    without a run, the draw only."""
+    saved = _saved(config)
+    record = saved.record if saved is not None else None
     if not isinstance(record, dict):
         return {"draw": draw} if draw else None
     return {**record, "isolation": (isolation or {}).get("level"), "draw": draw}
