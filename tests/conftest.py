@@ -14,6 +14,12 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+# jsonschema (under nbformat) imports rfc3987_syntax when installed (jupyter-events brings it), which
+# compiles 38 grammars on import: about 2 s of CPU in every test process that reads a notebook.  It
+# serves only the "iri" format of draft 7 and later, checked only with a FormatChecker; nbformat
+# validates with draft 4 and no format checker, and nothing in the kit uses either.
+sys.modules.setdefault("rfc3987_syntax", None)
+
 import numpy as np  # noqa: E402
 import pytest
 
