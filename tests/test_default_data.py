@@ -50,7 +50,11 @@ def test_arrays_are_identical(regenerated):
 
 
 def test_images_are_identical(regenerated):
-    for name in _files(regenerated):
+    images = [name for name in _files(regenerated) if name.endswith((".png", ".jpg"))]
+    assert len(images) >= 2, images  # the temple's pair at least
+    for name in images:
+        if (DATA_DIR / name).read_bytes() == (regenerated / name).read_bytes():
+            continue  # the same file: the same pixels, without decoding both (about 2 s for all)
         if name.endswith(".png"):
             np.testing.assert_array_equal(load_image(DATA_DIR / name), load_image(regenerated / name), err_msg=name)
         elif name.endswith(".jpg"):
