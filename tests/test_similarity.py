@@ -60,6 +60,14 @@ def given() -> set[int]:
     return given_hashes()
 
 
+@pytest.fixture
+def command_given(monkeypatch, given):
+    """The command (``main``) reads the handout's code hashes as made once for the module."""
+    from autograder.review import similarity
+
+    monkeypatch.setattr(similarity, "given_hashes", lambda *args, **kwargs: set(given))
+
+
 @pytest.fixture(scope="module")
 def comparisons(tmp_path_factory, given):
     tmp = tmp_path_factory.mktemp("class")
@@ -140,7 +148,7 @@ def test_the_untouched_stubs_have_no_code_of_their_own(given):
         assert comp.names == [] and comp.skipped == ["stub1", "stub2"]
 
 
-def test_command_writes_ranked_csv_json_and_an_offline_page(tmp_path):
+def test_command_writes_ranked_csv_json_and_an_offline_page(tmp_path, command_given):
     out = tmp_path / "out"
     code = main(["similar", *map(str, sorted(CORPUS.glob("*.py"))), str(KIT_ROOT / "notebooks" / "key"), "--out", str(out)])
     assert code == 0
@@ -237,7 +245,7 @@ def test_a_batch_that_only_filled_the_stubs_differently_flags_nothing(tmp_path, 
     assert groups(comps) == [] and not any(p.flagged for c in comps.values() for p in c.ranked())
 
 
-def test_command_reports_a_group_once_with_its_members(tmp_path, capsys):
+def test_command_reports_a_group_once_with_its_members(tmp_path, capsys, command_given):
     paths = [_key_copy(tmp_path / f"c{k}", rename=k == 0) for k in range(4)] + [CORPUS / "alice.py", CORPUS / "bo.py"]
     assert main(["similar", *map(str, paths), "--out", str(tmp_path / "out"), "--top", "1"]) == 0
     data = json.loads((tmp_path / "out" / "similarity.json").read_text())
