@@ -1,23 +1,20 @@
 """The autograder: hidden checks (pytest tests) on unseen scenes, student code run only in a sandbox.
 
-Layout: ``sandbox/`` (isolation and the session protocol with the child), ``submission.py`` (reading
-notebooks), ``hidden/`` (the hidden checks as pytest tests, their plugin and inputs), ``run.py`` (a
-grading run: configuration, hidden inputs, sandboxes, workers, budget and canary set up once; every
-channel grades through it), ``grade.py`` (one submission: a pytest session in a worker,
-``workers.py``; its budget, ``budget.py``), ``batch.py`` (many, resumable; the folder's journal in
-``journal.py``, stopping processes in ``killing.py``), ``gradebook.py`` (grades.csv), ``key.py``
-(the answer-key submission), ``results.py`` (the results model), ``config.py``, ``gradescope.py``
-and ``gradescope_run.py`` (building the bundle, grading in it), ``nbgrader_course.py`` and
-``nbgrader_grade.py`` (building the course, grading in it), ``pictures.py`` and ``feedback_page.py``
-(the figures of the public data), ``review/`` (the class report, look-alike code) and the command
-line ``__main__.py``.
+Layout, one folder a role, each importing only the rows below it (docs/architecture.md):
+``sandbox/`` (the locked-down child and the session with it) and ``submission/`` (reading a
+hand-in); ``inputs/`` (the configuration, the hidden scenes and each concept's cases) and
+``feedback/`` (the results model, the words of a failed call, the pictures, the feedback page);
+``review/`` (look-alike code, library calls, the class report); ``grading/`` (a run set up once,
+one worker session per submission, the budget, the canary); ``hidden/`` (the hidden checks as
+pytest tests and their plugin); ``channels/`` (the batch, Gradescope, nbgrader and a cluster).
+This root holds only the command line, ``__main__.py``.
 
 Public entry points (imported lazily, so that ``import autograder`` stays cheap):
 
-- :class:`GradingRun` (``autograder.run``): set up once, ``run.grade(path)`` -> a finished ``SubmissionResult``;
-- :func:`grade_batch` (``autograder.batch``): many submissions in parallel into an output folder;
-- :func:`build_hidden_inputs` (``autograder.hidden.inputs``): the hidden inputs of a ``GradingConfig``;
-- :func:`load_config` (``autograder.config``);
+- :class:`GradingRun` (``autograder.grading.run``): set up once, ``run.grade(path)`` -> a finished ``SubmissionResult``;
+- :func:`grade_batch` (``autograder.channels.batch``): many submissions in parallel into an output folder;
+- :func:`build_hidden_inputs` (``autograder.inputs.build``): the hidden inputs of a ``GradingConfig``;
+- :func:`load_config` (``autograder.inputs.config``);
 - :func:`main` (``autograder.__main__``): the command line, ``python -m autograder``.
 """
 
@@ -26,8 +23,8 @@ from __future__ import annotations
 __all__ = ["GradingRun", "build_hidden_inputs", "grade_batch", "load_config", "main"]
 
 _WHERE = {
-    "GradingRun": "run", "grade_batch": "batch", "build_hidden_inputs": "hidden.inputs",
-    "load_config": "config", "main": "__main__",
+    "GradingRun": "grading.run", "grade_batch": "channels.batch", "build_hidden_inputs": "inputs.build",
+    "load_config": "inputs.config", "main": "__main__",
 }
 
 

@@ -13,7 +13,7 @@
   report GRADED_DIR --out DIR                 the class report: pass shares, mistakes, histograms, Canvas CSV
   nbgrader-grade COURSE [--assignment hw4]    write the kit's scores into an nbgrader gradebook (after autograde)
 
-On a cluster (docs/cluster.md; autograder.cluster):
+On a cluster (docs/cluster.md; autograder.channels.cluster):
   prepare SUBMISSION... --root ROOT --shards K   hidden inputs, the canary and the frozen manifest in ROOT
   grade --shard i/K --out ROOT                shard i of K: the manifest's submissions i, i+K, ...
   shards ROOT                                 each shard's progress, and the shards to resubmit
@@ -54,7 +54,7 @@ from .sandbox.model import LEVELS
 
 
 def _config(args):
-    from .config import load_config
+    from autograder.inputs.config import load_config
 
     config = load_config(args.config, official_data=args.official_data)
     if config.is_dev:
@@ -68,7 +68,7 @@ def _config(args):
 
 def _batch_errors(run):
     """Run ``run()``; a refused folder or Ctrl-C become a message and an exit code."""
-    from .batch import BatchInterrupted, ConfigurationMismatch
+    from autograder.channels.batch import BatchInterrupted, ConfigurationMismatch
 
     try:
         return run()
@@ -106,7 +106,7 @@ def _private(run):
 
 def _grade(args) -> int:
     if args.shard:
-        from .cluster.cli import shard_command
+        from autograder.channels.cluster.cli import shard_command
 
         return _private(lambda: _batch_errors(lambda: shard_command(args)))
     if not args.submissions:
@@ -124,7 +124,7 @@ def _grade_options(args, config) -> dict:
 
 
 def _grade_run(args) -> int:
-    from .batch import grade_batch
+    from autograder.channels.batch import grade_batch
 
     config = _config(args)
     records = grade_batch(args.submissions, args.out, resume=not args.no_resume, regrade=args.regrade or (),
@@ -145,7 +145,7 @@ def _regrade(args) -> int:
 
 
 def _regrade_run(args, old, new, paths) -> int:
-    from .regrade import regrade
+    from autograder.channels.regrade import regrade
 
     def run() -> int:
         report = regrade(old, new, paths, **_grade_options(args, _config(args)))
@@ -162,7 +162,7 @@ def _regrade_run(args, old, new, paths) -> int:
 
 
 def _accept(args) -> int:
-    from .regrade import accept
+    from autograder.channels.regrade import accept
 
     try:
         history = accept(args.new, args.into)
@@ -178,14 +178,14 @@ def _key(args) -> int:
 
 
 def _key_run(args) -> int:
-    from .key import write_key_submission
+    from autograder.grading.key import write_key_submission
 
 
     path = write_key_submission(args.out, zip_it=not args.no_zip)
     print(f"answer-key submission: {path}")
     if args.grade:
-        from .config import load_config
-        from .batch import grade_batch
+        from autograder.inputs.config import load_config
+        from autograder.channels.batch import grade_batch
 
         record = grade_batch([path], Path(args.out) / "graded", config=load_config(args.config),
                              resume=False, progress=False, regrade_all=True)[0]
@@ -235,7 +235,7 @@ def _regrade_arguments(p) -> None:
 
 
 def _prepare(args) -> int:
-    from .cluster.cli import prepare_command
+    from autograder.channels.cluster.cli import prepare_command
 
     return _private(lambda: _batch_errors(lambda: prepare_command(args, _config(args))))
 
@@ -248,9 +248,9 @@ def _prepare_arguments(p) -> None:
 
 
 def _cluster(function: str):
-    """A function of ``autograder.cluster.cli`` (imported when called); a command runs with umask 077."""
+    """A function of ``autograder.channels.cluster.cli`` (imported when called); a command runs with umask 077."""
     def call(arg):
-        from .cluster import cli
+        from autograder.channels.cluster import cli
 
         if function.endswith("_arguments"):
             return getattr(cli, function)(arg)
@@ -286,11 +286,11 @@ COMMANDS = {
                       arguments="_accept_arguments"),
     "key": Command(__name__, "_key", "write the answer-key submission (a folder and a .zip)",
                    arguments="_key_arguments", needs=("nbformat",), install="pip install nbformat"),
-    "gradescope": Command("autograder.gradescope", help="build the Gradescope autograder zip, or run inside it",
+    "gradescope": Command("autograder.channels.gradescope.bundle", help="build the Gradescope autograder zip, or run inside it",
                           register="add_cli"),
-    "nbgrader": Command("autograder.nbgrader_course", help="build an nbgrader course graded by the hidden checks",
+    "nbgrader": Command("autograder.channels.nbgrader.course", help="build an nbgrader course graded by the hidden checks",
                         register="add_cli"),
-    "nbgrader-grade": Command("autograder.nbgrader_grade", register="add_grade_cli", needs=("nbgrader",),
+    "nbgrader-grade": Command("autograder.channels.nbgrader.grade", register="add_grade_cli", needs=("nbgrader",),
                               install="pip install 'nbgrader>=0.9.6,<0.10'",
                               help="score an nbgrader course's submissions with the kit's grader (after nbgrader "
                                    "autograde)"),

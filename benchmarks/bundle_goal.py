@@ -25,8 +25,8 @@ import scipy.optimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/core.py must not hide core/
 
-from autograder.config import quick_config  # noqa: E402
-from autograder.hidden.inputs import build_hidden_inputs  # noqa: E402
+from autograder.inputs.config import quick_config  # noqa: E402
+from autograder.inputs.build import build_hidden_inputs  # noqa: E402
 from core.geometry import IDENTITY_POSE  # noqa: E402
 from judging.bundle import OPTIMUM_SLACK, total_error  # noqa: E402
 from solutions import rodriguesResidual  # noqa: E402

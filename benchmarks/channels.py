@@ -6,7 +6,7 @@ the ratio, and where the all-hang's time went: each function's first request, th
 runs (a function that ran out of time is not called again in the session), with the seconds it
 was allowed, read from its feedback.  Each row shows the limits' clock (cpu on Gradescope), the
 measured CPU share, the wall-clock backstop's multiple of a call ("backstop"), the session's wall-clock budget in seconds ("session",
-grown by 1 / share: ``autograder.budget.budget_of``) and the seconds the canary (the bundled answer
+grown by 1 / share: ``autograder.grading.budget.budget_of``) and the seconds the canary (the bundled answer
 key) took before grading.
 
     python benchmarks/channels.py [--vcpu 0.5] [--keep DIR]
@@ -34,7 +34,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
 
-from autograder import gradescope  # noqa: E402
+from autograder.channels.gradescope import bundle as gradescope  # noqa: E402
 from tests import corpus  # noqa: E402
 from tests.corpus.hangs import build_all_hang  # noqa: E402
 from tests.gradescope_like import unpack  # noqa: E402

@@ -63,8 +63,8 @@ def main(argv=None) -> int:
 
     import corpus
 
-    from autograder.config import GradingConfig, quick_config
-    from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.inputs.config import GradingConfig, quick_config
+    from autograder.inputs.build import build_hidden_inputs
 
     config = quick_config() if args.quick else GradingConfig()
     root = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="hw4-grading-bench-"))
@@ -87,7 +87,7 @@ def faults(args, config, names, root: Path) -> int:
     """The same class graded clean, then with its faults; prints both and their ratio."""
     import corpus
 
-    from autograder.batch import grade_batch
+    from autograder.channels.batch import grade_batch
 
     k = args.faults if args.faults is not None else max(1, round(args.class_of / 15))
     if not 0 < 2 * k <= args.class_of:
@@ -141,7 +141,7 @@ def throughput(args, config, names, root: Path) -> int:
     """Submissions per minute at --jobs 1 and 2, beside the answer key alone and the canary's cost."""
     import corpus
 
-    from autograder.batch import grade_batch
+    from autograder.channels.batch import grade_batch
 
     paths = [corpus.build(names[k % len(names)], root / "subs" / f"{k:02d}") for k in range(args.count)]
     key_out = root / "key"

@@ -1,7 +1,7 @@
 """Whether Q4.1 tells right from wrong on the hidden matching problems, secret by secret.
 
 For each secret of the sweep (``tests/test_secret_sweep.py``'s names, quick settings) the matching
-problems are built as the grader builds them (``autograder.hidden.cases.correspondence``), and
+problems are built as the grader builds them (``autograder.inputs.correspondence``), and
 matchers are graded on each scene by the hidden test's own call and judgment (``best_match``,
 ``judging.correspondence.matches``), in this process:
 
@@ -35,7 +35,7 @@ from core.paths import KIT_ROOT  # noqa: E402
 
 sys.path.insert(1, str(KIT_ROOT / "tests"))
 
-from autograder.config import quick_config  # noqa: E402
+from autograder.inputs.config import quick_config  # noqa: E402
 from judging import correspondence as jc  # noqa: E402
 
 Q41_POINTS = 15.0
@@ -64,9 +64,9 @@ def matchers() -> tuple[dict, dict]:
 
 def graded(secret: str) -> list[dict]:
     """One row per scene of ``secret``'s matching problems: the goal and each matcher's share and fraction."""
-    from autograder.hidden.cases.correspondence import matching_scenes, prepare_correspondence
+    from autograder.inputs.correspondence import matching_scenes, prepare_correspondence
     from autograder.hidden.plugin import LocalStudent
-    from autograder.hidden.scenes import make_scenes
+    from autograder.inputs.scenes import make_scenes
     from autograder.hidden.test_correspondence import best_match
     from scenes.envelope import outside_envelope
 

@@ -50,7 +50,7 @@ def main(argv=None) -> int:
 
     import corpus
 
-    from autograder.config import quick_config
+    from autograder.inputs.config import quick_config
 
     root = Path(tempfile.mkdtemp(prefix="keep-bench-"))
     sub = corpus.build(SUBMISSION, root / "subs")

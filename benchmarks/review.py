@@ -73,7 +73,7 @@ def make_submissions(folder: Path, count: int, rng: np.random.Generator) -> list
 
 
 def make_results(folder: Path, count: int, rng: np.random.Generator) -> None:
-    from autograder.results import QuestionResult, SubmissionResult, TestResult, autograded_question_ids, write_csv
+    from autograder.feedback.results import QuestionResult, SubmissionResult, TestResult, autograded_question_ids, write_csv
     from core.manifest import question
 
     results = []

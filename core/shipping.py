@@ -4,7 +4,7 @@ Three destinations read this table:
 
 - the student release (``python -m kit release``, :mod:`kit.release`): the packages students
   import or run, the student notebooks, the data without the official course files;
-- the grader bundle (``python -m autograder gradescope``, :mod:`autograder.gradescope`): what
+- the grader bundle (``python -m autograder gradescope``, :mod:`autograder.channels.gradescope.bundle`): what
   grading a submission needs, reference solutions included;
 - the sandbox (:mod:`autograder.sandbox`): the packages the student's code may import while it
   is graded (the notebooks import ``starter``, whose self-checks import ``judging``).

@@ -18,7 +18,7 @@ and call each the way its year's course did:
   ``ransacF(pts1, pts2, M, nIters=1000, tol=0.42)`` (a helper the kit gives: only noted).
 
 :class:`Signature` is a function's parameters as written; the grader reads it from the syntax
-tree (``autograder.submission_layout.signature_of``), a self-check from the function itself
+tree (``autograder.submission.layout.signature_of``), a self-check from the function itself
 (:func:`signature_of_callable`).  Imports numpy only.
 """
 

@@ -6,7 +6,7 @@ calls every shipped callable to prove it).  What they need is computed here, on 
 
 - for the public data, by ``python -m kit check-data``, which commits it beside the checks
   (starter/checks/figure_data.json, residual_case.json; tests prove the files fresh);
-- for the hidden scenes, by the hidden cases (autograder.hidden.cases.bundle).
+- for the hidden scenes, by the hidden cases (autograder.inputs.bundle).
 
 Conventions: C (3, 4) = K [R | t] maps world (camera-1) coordinates to pixels (x, y) = (column,
 row); M = [R | t].

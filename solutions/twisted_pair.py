@@ -1,7 +1,7 @@
 """Q3.3's twisted-pair case: matches on which a findM2 that tests depth in camera 1 only goes wrong.
 
 Grader side: its construction runs working linear triangulations (answers to Q3.2), so it cannot
-ship.  The hidden test (autograder.hidden.cases.pose) makes the case of each draw's seed; the
+ship.  The hidden test (autograder.inputs.pose) makes the case of each draw's seed; the
 public self-check reads the public seed's case from ``starter/checks/twisted_pair.json``, written
 by ``python -m kit check-data`` (kit.check_data), and a test proves that file is a fresh
 computation.

@@ -59,10 +59,10 @@ def homework_data(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def config_file(tmp_path_factory) -> Path:
-    """The quick grading settings (``autograder.config.quick_config``) in a file of the module's."""
+    """The quick grading settings (``autograder.inputs.config.quick_config``) in a file of the module's."""
     import json
 
-    from autograder.config import quick_config
+    from autograder.inputs.config import quick_config
 
     path = tmp_path_factory.mktemp("config") / "grader.json"
     path.write_text(json.dumps(quick_config().to_dict()))
@@ -158,7 +158,7 @@ def pytest_cmdline_main(config):
         option.loadscopereorder = False  # the files in the recorded cost order (xdist's: most tests first)
 
 
-# One keep (autograder.hidden.keep) for the whole suite, made by the first process and inherited by
+# One keep (autograder.inputs.keep) for the whole suite, made by the first process and inherited by
 # the others and by every grader a test starts: many tests grade the same code under the same
 # settings (copies of the answer key, quick_config), and each value is made once, by the first
 # test that needs it.  A keep already named in the environment is used as it is, and kept.
@@ -166,7 +166,7 @@ _SUITE_KEEP: list[str] = []
 
 
 def pytest_configure(config):
-    from autograder.hidden.keep import ENV_KEEP
+    from autograder.inputs.keep import ENV_KEEP
 
     if not hasattr(config, "workerinput") and not os.environ.get(ENV_KEEP):
         folder = tempfile.mkdtemp(prefix="kit-suite-keep-")  # 0700
@@ -175,7 +175,7 @@ def pytest_configure(config):
 
 
 def pytest_unconfigure(config):
-    from autograder.hidden.keep import ENV_KEEP
+    from autograder.inputs.keep import ENV_KEEP
 
     while _SUITE_KEEP:
         shutil.rmtree(_SUITE_KEEP.pop(), ignore_errors=True)

@@ -22,20 +22,20 @@ import numpy as np
 import pytest
 from hidden_files import files_grading
 
-from autograder.config import (
+from autograder.inputs.config import (
     DEV_SECRET,
     GradingConfig,
     TempleSpec,
     load_config,
     quick_config,
 )
-from autograder.batch import grade_batch, submission_digest
-from autograder.hidden.inputs import build_hidden_inputs
+from autograder.channels.batch import grade_batch, submission_digest
+from autograder.inputs.build import build_hidden_inputs
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
-from autograder.key import write_key_submission
-from autograder.results import autograded_question_ids
+from autograder.grading.key import write_key_submission
+from autograder.feedback.results import autograded_question_ids
 from autograder.sandbox import CallOutcome, ResourceLimits, Sandbox, live_pids_of_uid
-from autograder.submission import load_submission
+from autograder.submission.read import load_submission
 from core.manifest import NOTEBOOKS, QUESTIONS, question
 
 pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
@@ -395,8 +395,8 @@ def test_an_exception_carrying_the_inputs_is_quoted_as_type_place_and_a_short_li
     assert not re.search(r"[A-Z2-7]{33,}", text), "a base32 dump of the inputs reached the results"
     assert "second line" not in text and "7" * 20 not in text
     # The points this submission was given: its own draw (from its code), the first hidden scene.
-    from autograder.hidden.inputs import code_salt
-    from autograder.submission import load_submission
+    from autograder.inputs.build import code_salt
+    from autograder.submission.read import load_submission
 
     hidden = build_hidden_inputs(config, salt=code_salt(load_submission(folder)))
     pts = np.asarray(hidden.prepared["fundamental"].cases[0].pts1, dtype=float)
@@ -437,7 +437,7 @@ def test_submission_digest_follows_content(tmp_path):
 
 
 def test_a_grader_bug_gives_a_failed_result_and_the_batch_goes_on(tmp_path, monkeypatch, config):
-    from autograder.run import GradingRun
+    from autograder.grading.run import GradingRun
 
     subs = [corpus.build(n, tmp_path / "subs") for n in ("untouched_student_zero", "invalid_json_q2_loses_Q2")]
 

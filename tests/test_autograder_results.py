@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from autograder.results import (
+from autograder.feedback.results import (
     QuestionResult,
     SubmissionResult,
     TestResult,
@@ -136,7 +136,7 @@ def test_csv_rows_line_up_with_the_header(tmp_path):
 def test_configuration_is_recorded_round_trips_and_keeps_results_json_valid(tmp_path):
     from dataclasses import replace
 
-    from autograder.config import configuration, quick_config
+    from autograder.inputs.config import configuration, quick_config
 
     record = {**configuration(quick_config()), "isolation": "namespaces"}
     result = replace(sample(), configuration=record)

@@ -26,7 +26,7 @@ import pytest
 from autograder.sandbox import ResourceLimits, Sandbox, live_pids_of_uid
 from autograder.sandbox.script import MPL_CACHE
 from core import wire
-from autograder.submission import parse_cells
+from autograder.submission.read import parse_cells
 from core.paths import KIT_ROOT
 
 pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md

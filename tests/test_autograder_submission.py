@@ -15,7 +15,7 @@ import nbformat
 import pytest
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
 
-from autograder.submission import (
+from autograder.submission.read import (
     SizeLimits,
     SubmissionError,
     load_submission,
@@ -323,7 +323,7 @@ def test_fall_2023s_util_is_the_kits_given_helpers(tmp_path):
     with the names that file had (refineF, _singularize, camera2, displayEpipolarF, epipolarMatchGUI)."""
     import types
 
-    from autograder.submission import GIVEN_HELPERS_ORIGIN
+    from autograder.submission.read import GIVEN_HELPERS_ORIGIN
 
     root = write_folder(tmp_path / "sub", {
         "submission.py": b"import util\ndef eightpoint(pts1, pts2, M):\n    return util._singularize(util.refineF)\n",

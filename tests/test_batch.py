@@ -24,11 +24,11 @@ from pathlib import Path
 import corpus
 import pytest
 
-from autograder.run import GradingRun
-from autograder.batch import ConfigurationMismatch, grade_batch
-from autograder.config import configuration_changes, load_config, quick_config
-from autograder.hidden.keep import ENV_KEEP
-from autograder.regrade import accept, diff_folders
+from autograder.grading.run import GradingRun
+from autograder.channels.batch import ConfigurationMismatch, grade_batch
+from autograder.inputs.config import configuration_changes, load_config, quick_config
+from autograder.inputs.keep import ENV_KEEP
+from autograder.channels.regrade import accept, diff_folders
 from autograder.sandbox import ResourceLimits, Sandbox
 from core.paths import KIT_ROOT
 from core.text import points
@@ -195,9 +195,9 @@ LIVE_GRADER = textwrap.dedent('''
 
 DRIVER = textwrap.dedent('''
     import os, signal, sys
-    from autograder.run import GradingRun
-    from autograder.batch import grade_batch
-    from autograder.config import load_config
+    from autograder.grading.run import GradingRun
+    from autograder.channels.batch import grade_batch
+    from autograder.inputs.config import load_config
 
     real = GradingRun.grade
 
@@ -429,7 +429,7 @@ def test_regrade_with_a_diff_names_exactly_the_students_whose_score_moved(graded
 
 
 def test_configuration_changes_name_what_differs():
-    from autograder.config import configuration
+    from autograder.inputs.config import configuration
 
     a, b = configuration(quick_config()), configuration(quick_config(secret="s", match_points=30))
     said = configuration_changes(a, b)
@@ -533,7 +533,7 @@ def test_a_signal_between_two_set_up_steps_stops_the_next_before_it_starts():
     # (no step running to raise in) must not let that step run for its seconds first.
     import threading
 
-    from autograder.batch import _SetUpCancelled, _Signals
+    from autograder.channels.batch import _SetUpCancelled, _Signals
 
     ran = []
     signals = _Signals(threading.Event(), hard_exit=lambda: ran.append("hard exit"))

@@ -25,10 +25,10 @@ import pytest
 from corpus import variants
 from hidden_files import files_grading
 
-from autograder.batch import grade_batch
-from autograder.config import quick_config
-from autograder.hidden.inputs import build_hidden_inputs
-from autograder.hidden.keep import default_keep
+from autograder.channels.batch import grade_batch
+from autograder.inputs.config import quick_config
+from autograder.inputs.build import build_hidden_inputs
+from autograder.inputs.keep import default_keep
 from autograder.hidden.plugin import LocalStudent, run_here
 from autograder.sandbox import ResourceLimits
 
@@ -248,7 +248,7 @@ def test_the_reference_err_passes_with_two_or_three_views(hidden):
 
 
 def test_numpy2_removals_get_a_hint():
-    from autograder.hidden.feedback import failure
+    from autograder.feedback.words import failure
     from autograder.sandbox import CallOutcome
 
     text = failure("eightpoint", CallOutcome("exception", message="AttributeError: module 'numpy' has no "

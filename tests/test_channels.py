@@ -2,7 +2,7 @@
 grade``), by Gradescope's ``run_autograder`` in a folder laid out like /autograder, and by the
 nbgrader course (``nbgrader autograde`` then ``python -m autograder nbgrader-grade``) get
 identical per-question scores, each on its own hidden draw, the same draw in every channel.  All
-three grade through one ``autograder.run.GradingRun``: each result is stamped by it with the same
+three grade through one ``autograder.grading.run.GradingRun``: each result is stamped by it with the same
 configuration key.  ``nbgrader autograde`` runs with nbgrader's Execute step off (see
 ``nbgrader_scores``).  Slow: about two minutes on two cores (the channels run two at a time).
 """
@@ -21,10 +21,10 @@ from pathlib import Path
 
 import pytest
 
-from autograder import gradescope
-from autograder import nbgrader_course as nc
-from autograder.config import quick_config
-from autograder.results import autograded_question_ids
+from autograder.channels.gradescope import bundle as gradescope
+from autograder.channels.nbgrader import course as nc
+from autograder.inputs.config import quick_config
+from autograder.feedback.results import autograded_question_ids
 from tests import corpus
 from tests.gradescope_like import unpack
 from tests.test_gradescope import run_autograder
@@ -83,7 +83,7 @@ def gradescope_one(setup, bundle: Path, name: str) -> tuple[dict, str | None]:
 
 
 def nbgrader_scores(setup) -> dict:
-    from autograder.config import load_config
+    from autograder.inputs.config import load_config
 
     course = nc.build_course(setup["root"] / "course")
     nc.run_nbgrader(course, "generate_assignment", "hw4", "--force")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from autograder.results import QuestionResult, SubmissionResult, TestResult, write_csv
+from autograder.feedback.results import QuestionResult, SubmissionResult, TestResult, write_csv
 from autograder.review.__main__ import main
 from autograder.review.report import CANVAS_COLUMNS, build_report, load_results, write_report
 from core.manifest import question

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from autograder.gradebook import BatchRecord, staff_of, write_summary
+from autograder.channels.gradebook import BatchRecord, staff_of, write_summary
 
 
 def test_staff_notes_carry_what_was_not_removed_and_what_survived():

@@ -1,4 +1,4 @@
-"""Grading past one machine: prepare, shards, merge, on Slurm and Kubernetes (autograder.cluster).
+"""Grading past one machine: prepare, shards, merge, on Slurm and Kubernetes (autograder.channels.cluster).
 
 A class of three corpus submissions (the answer key and two that lose part of Q2) at the quick
 settings:
@@ -33,15 +33,15 @@ import corpus
 import pytest
 import slurm_node
 
-from autograder.batch import grade_batch
-from autograder.cluster.kubernetes import write_kubernetes
-from autograder.cluster.manifest import ManifestMismatch, load_manifest, shard_status, write_manifest
-from autograder.cluster.merge import merge
-from autograder.cluster.prepare import prepare
-from autograder.cluster.shard import grade_shard
-from autograder.cluster.slurm import _ranges, write_slurm
-from autograder.config import configuration, load_config, quick_config
-from autograder.journal import submission_digest, unique_names
+from autograder.channels.batch import grade_batch
+from autograder.channels.cluster.kubernetes import write_kubernetes
+from autograder.channels.cluster.manifest import ManifestMismatch, load_manifest, shard_status, write_manifest
+from autograder.channels.cluster.merge import merge
+from autograder.channels.cluster.prepare import prepare
+from autograder.channels.cluster.shard import grade_shard
+from autograder.channels.cluster.slurm import _ranges, write_slurm
+from autograder.inputs.config import configuration, load_config, quick_config
+from autograder.channels.journal import submission_digest, unique_names
 from autograder.sandbox import IsolationRefused
 from core.paths import KIT_ROOT
 from core.text import points

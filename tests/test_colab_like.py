@@ -249,7 +249,7 @@ def test_answer_key_copies_load_each_other_from_drive_and_hand_in(colab, github,
     folders, run in fresh sessions: q3-q5 load the earlier notebooks' functions from Drive (the
     newest copy wins over an older untouched one), then the hand-in notebook writes the PDF and
     the zip into Drive and downloads them; the grader reads the zip's renamed notebooks."""
-    from autograder.submission import load_submission
+    from autograder.submission.read import load_submission
 
     drive = tmp_path / "drive"
 

@@ -18,7 +18,7 @@ import pytest
 import breadth
 
 import solutions
-from autograder.config import quick_config
+from autograder.inputs.config import quick_config
 
 pytestmark = pytest.mark.slow
 
@@ -27,8 +27,8 @@ _NAMES = ("eightpoint", "essentialMatrix", "triangulate", "findM2", "epipolarCor
 
 @pytest.fixture(scope="module")
 def hidden():
-    from autograder.hidden.inputs import build_hidden_inputs
-    from autograder.hidden.keep import default_keep
+    from autograder.inputs.build import build_hidden_inputs
+    from autograder.inputs.keep import default_keep
 
     return build_hidden_inputs(quick_config(secret=breadth.secrets("sweep-secret")[0]), keep=default_keep())
 

@@ -71,10 +71,10 @@ def test_listing_a_deep_folder_stops_at_its_depth_and_follows_no_link(tmp_path, 
 
 
 def test_a_deep_handin_is_read_digested_and_found(handin):
-    from autograder.gradescope_run import submission_candidates
-    from autograder.journal import submission_digest
+    from autograder.channels.gradescope.run import submission_candidates
+    from autograder.channels.journal import submission_digest
     from autograder.review.reader import read_submission
-    from autograder.submission import load_submission
+    from autograder.submission.read import load_submission
 
     assert load_submission(handin).notebooks           # the key's notebooks, read
     assert len(submission_digest(handin)) == 64

@@ -103,8 +103,8 @@ def notebook_submission(folder: Path, cells: dict[str, str]) -> Path:
 # What a channel does: open the sandbox, run the canary, grade; prints JSON of what happened.
 DRIVER = textwrap.dedent("""\
     import json, os, sys
-    from autograder.config import quick_config
-    from autograder.run import GradingRun
+    from autograder.inputs.config import quick_config
+    from autograder.grading.run import GradingRun
     from autograder.sandbox import Sandbox
 
     subs = sys.argv[2:]
@@ -373,7 +373,7 @@ def test_kit_in_a_private_folder_with_a_symlinked_venv_is_refused(tmp_path):
 
 
 def test_answer_key_is_written_owner_only(tmp_path):
-    from autograder.key import write_key_submission
+    from autograder.grading.key import write_key_submission
 
     os.chmod(tmp_path, 0o755)
     old = os.umask(0o022)
@@ -389,8 +389,8 @@ def test_answer_key_is_written_owner_only(tmp_path):
 
 @pytest.mark.slow
 def test_canary_gives_the_key_full_marks_in_the_strongest_sandbox():
-    from autograder.config import quick_config
-    from autograder.run import GradingRun
+    from autograder.inputs.config import quick_config
+    from autograder.grading.run import GradingRun
     from autograder.sandbox import Sandbox
 
     with Sandbox(KIT_ROOT) as box, GradingRun(quick_config(), sandbox=box) as run:

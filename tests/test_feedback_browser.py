@@ -16,8 +16,9 @@ import json
 
 import pytest
 
-from autograder import feedback_page, gradescope_pictures
-from autograder import pictures as step
+from autograder.feedback import page as feedback_page
+from autograder.channels.gradescope import pictures as gradescope_pictures
+from autograder.feedback import pictures as step
 from autograder.hidden.plugin import LocalStudent
 from tests import picture_standin
 from tests.test_browser_widgets import CHROMIUM_ARGS, chromium_path

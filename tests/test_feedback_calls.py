@@ -19,10 +19,10 @@ import re
 import numpy as np
 import pytest
 
-from autograder.config import quick_config
-from autograder.hidden.feedback import PARAMETERS, called_as, read_returned, returned
-from autograder.hidden.inputs import build_hidden_inputs
-from autograder.hidden.keep import default_keep
+from autograder.inputs.config import quick_config
+from autograder.feedback.words import PARAMETERS, called_as, read_returned, returned
+from autograder.inputs.build import build_hidden_inputs
+from autograder.inputs.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from autograder.sandbox import CallOutcome
 from judging.verdict import Malformed
@@ -190,7 +190,7 @@ def test_kinds_never_print_values():
 def test_the_mistakes_a_check_names_are_the_ones_its_feedback_says():
     """``named_mistakes`` is what the grader records for the class report; ``notes`` says the same
     mistakes to the student, each once, and none when the check passed."""
-    from autograder.hidden.feedback import named_mistakes, notes
+    from autograder.feedback.words import named_mistakes, notes
     from judging.mistakes import mistake
 
     found = [mistake("f_transposed"), None, mistake("f_rank3"), mistake("f_transposed")]
@@ -204,7 +204,7 @@ def test_a_function_of_another_question_is_named_with_its_question():
     """A check that runs another question's function (Q4.2 falling back to the matcher and triangulate)
     names that question at the function's first mention, as the pictures do; a call, a file, the
     check's own function and a name already followed by its question are left as they are."""
-    from autograder.hidden.feedback import upstream_named
+    from autograder.feedback.words import upstream_named
 
     lines = ["graded through your epipolarCorrespondence and triangulate (compute3D_pts: compute3D_pts raised "
              "KeyError: temple (in compute3D_pts, cell 3, line 2))",

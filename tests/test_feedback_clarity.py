@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import solutions
-from autograder.config import quick_config
-from autograder.hidden.inputs import build_hidden_inputs
-from autograder.hidden.keep import default_keep
+from autograder.inputs.config import quick_config
+from autograder.inputs.build import build_hidden_inputs
+from autograder.inputs.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 
 
@@ -136,7 +136,7 @@ def test_own_helper_is_noted_in_the_feedback_of_the_question_using_it(hidden):
 
 
 def test_submission_notes_a_given_helper_it_defines(tmp_path):
-    from autograder.submission import load_submission
+    from autograder.submission.read import load_submission
 
     (tmp_path / "submission.py").write_text("import numpy as np\n\ndef camera2(E):\n    return np.zeros((3, 4, 4))\n\n"
                                             "def eightpoint(pts1, pts2, M):\n    return np.eye(3)\n")

@@ -9,8 +9,9 @@ import io
 
 import numpy as np
 
-from autograder import feedback_page, gradescope_pictures
-from autograder.results import QuestionResult, SubmissionResult, TestResult
+from autograder.feedback import page as feedback_page
+from autograder.channels.gradescope import pictures as gradescope_pictures
+from autograder.feedback.results import QuestionResult, SubmissionResult, TestResult
 from starter.checks.pictures import Picture
 
 NOTES = tuple(f"q{k}.ipynb: helper{k} is defined 2 times; the last one (cell {k}) is used." for k in range(12))
@@ -96,7 +97,7 @@ def test_one_likely_mistake_per_cause():
     md = result.feedback_markdown()
     assert md[md.index("## Q3.3"):md.index("## Q5")].count(hint) == 1 and md.count(hint) == 2   # once per question
     assert "depth tested in one camera only (the same cause as above" in md
-    from autograder.nbgrader_grade import question_feedback
+    from autograder.channels.nbgrader.grade import question_feedback
 
     assert question_feedback(q33).count(hint) == 1 and question_feedback(q33).count("Likely mistake: depth tested") == 2   # nbgrader's
     for layout in (None, {"checks": "visible"}):

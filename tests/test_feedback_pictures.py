@@ -1,6 +1,6 @@
 """The picture step's data path and its writers, in this process on a stand-in pictures module.
 
-``autograder.pictures``: a student function's failure, a missing function, something that cannot
+``autograder.feedback.pictures``: a student function's failure, a missing function, something that cannot
 be drawn or a drawing that breaks each cost that question's picture only ("figure not drawn: ...");
 what the student's functions return is checked once (sizes, dtypes) and drawn from the checked
 arrays in the worker; the grader checks the worker's record again and draws nothing.  The feedback page,
@@ -16,10 +16,11 @@ import json
 import numpy as np
 import pytest
 
-from autograder import feedback_page, gradescope_pictures
-from autograder import pictures as step
+from autograder.feedback import page as feedback_page
+from autograder.channels.gradescope import pictures as gradescope_pictures
+from autograder.feedback import pictures as step
 from autograder.hidden.plugin import LocalStudent
-from autograder.results import QuestionResult, SubmissionResult, TestResult
+from autograder.feedback.results import QuestionResult, SubmissionResult, TestResult
 from core import wire
 from tests import picture_standin
 

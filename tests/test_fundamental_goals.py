@@ -1,7 +1,7 @@
 """Q2's goals hold under every secret: valid methods keep full Q2, mistakes lose it.
 
 For each secret (CI's 4, the release sweep's 20: tests/breadth.py) the hidden Q2 inputs are prepared as the grader prepares them
-(``autograder.hidden.cases.fundamental.prepare_fundamental`` on the hidden scenes of
+(``autograder.inputs.fundamental.prepare_fundamental`` on the hidden scenes of
 ``quick_config(secret=...)``; the default data, the same under every secret, under the first),
 every eightpoint below is called through a ``LocalStudent`` as the hidden tests call it
 (``request_F``: as given, and with refineF switched off by the sandbox's own switch), and graded by
@@ -98,8 +98,8 @@ def _light_scenes(secret: str, default: bool = True):
     default data unless ``default`` is False, the two-view pair): the car scenes are left out.  The temples are rendered as the
     grader renders them: the matches are picked among fully covered pixels, which the supersampling
     changes."""
-    from autograder.config import quick_config
-    from autograder.hidden import scenes as hs
+    from autograder.inputs.config import quick_config
+    from autograder.inputs import scenes as hs
     from scenes.defaults import default_temple
     from scenes.temple import make_temple_scene
 
@@ -114,7 +114,7 @@ def _light_scenes(secret: str, default: bool = True):
 
 @lru_cache(maxsize=None)
 def _prepared(secret: str):
-    from autograder.hidden.cases.fundamental import prepare_fundamental
+    from autograder.inputs.fundamental import prepare_fundamental
 
     # The default data do not depend on the secret: judged under the first secret only.
     return prepare_fundamental(_light_scenes(secret, default=secret == SECRETS[0]))
@@ -162,8 +162,8 @@ def _ratios(p, F, F_off) -> dict:
 
 def test_light_scenes_are_the_graders():
     """The scenes this test prepares from are the grader's (same seeds, same matches)."""
-    from autograder.config import quick_config
-    from autograder.hidden.scenes import make_scenes
+    from autograder.inputs.config import quick_config
+    from autograder.inputs.scenes import make_scenes
 
     secret = SECRETS[0]
     light, full = _light_scenes(secret), make_scenes(quick_config(secret=secret))
@@ -174,7 +174,7 @@ def test_light_scenes_are_the_graders():
 
 
 def test_the_uint16_case_overflows_and_is_a_valid_scene():
-    from autograder.hidden.cases.fundamental import prepare_fundamental  # noqa: F401 - the module under test
+    from autograder.inputs.fundamental import prepare_fundamental  # noqa: F401 - the module under test
     from core.geometry import symmetric_epipolar_distances
 
     p = _prepared(SECRETS[0])

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import pytest
 
-from autograder import gradescope
-from autograder.config import load_config, quick_config
-from autograder.results import autograded_question_ids
+from autograder.channels.gradescope import bundle as gradescope
+from autograder.inputs.config import load_config, quick_config
+from autograder.feedback.results import autograded_question_ids
 from core.manifest import NOTEBOOKS, QUESTIONS
 from tests.gradescope_like import unpack
 
@@ -118,7 +118,7 @@ def test_bundle_holds_the_scripts_and_the_grader(bundle, names):
     assert info["time_limit"] == 300
     for package in gradescope.PACKAGES:
         assert f"{package}/__init__.py" in names
-    assert "autograder/grade.py" in names and "autograder/sandbox/child.py" in names
+    assert "autograder/grading/grade.py" in names and "autograder/sandbox/child.py" in names
     # The hidden checks are pytest tests: the bundle runs them with their plugin and settings.
     assert {"autograder/hidden/conftest.py", "autograder/hidden/plugin.py", "autograder/hidden/pytest.ini"} <= set(names)
     assert any(n.startswith("autograder/hidden/test_") for n in names)
@@ -342,8 +342,8 @@ def test_bundle_carries_the_hidden_inputs_and_its_display_settings(bundle, names
 
 
 def test_bundle_carries_the_secrets_own_inputs_which_the_canary_grades_on(bundle, tmp_path):
-    from autograder.hidden import inputs
-    from autograder.hidden.cases import CONCEPTS
+    from autograder.inputs import build as inputs
+    from autograder.inputs.cases import CONCEPTS
 
     source = unpack(bundle, tmp_path) / "source"
     config = load_config(source / gradescope.CONFIG_NAME, environ={})
@@ -389,7 +389,7 @@ def test_cpu_clock_settings_follow_the_measured_share_of_a_cpu():
 
 
 def test_results_show_base_points_and_extra_credit_apart_with_per_group_visibility():
-    from autograder.results import QuestionResult, SubmissionResult, TestResult
+    from autograder.feedback.results import QuestionResult, SubmissionResult, TestResult
     from core.manifest import question
 
     q2 = QuestionResult.of("Q2", [TestResult("F fits", 6, 6), TestResult("rank 2", 0, 4, feedback="F has rank 3")])
@@ -460,7 +460,7 @@ def test_a_time_limit_below_the_session_budget_ends_the_session_before_it(grades
     # run_autograder passes its limit on; the grader's session must end before the shell's kill, so
     # the checks that ran are reported by the grader (not the shell's fallback zero).  The limit
     # leaves room for a setup slowed by a loaded machine (the canary alone took 15 s on two busy
-    # cores) and the budget's minimum (autograder.budget.too_late), and is far below the session's
+    # cores) and the budget's minimum (autograder.grading.budget.too_late), and is far below the session's
     # budget without it.
     from tests.corpus.hangs import build_all_hang
 

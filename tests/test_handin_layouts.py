@@ -15,9 +15,9 @@ import sys
 import handin_layouts
 import pytest
 
-from autograder.batch import submission_name
-from autograder.config import quick_config
-from autograder.submission import load_submission
+from autograder.channels.batch import submission_name
+from autograder.inputs.config import quick_config
+from autograder.submission.read import load_submission
 from core.manifest import QUESTIONS
 
 AUTOGRADED = [q for q in QUESTIONS if q.functions]
@@ -78,7 +78,7 @@ def test_another_years_ransacF_is_noted_once(built, name):
 
 
 def test_ransacF_signatures_are_told_apart():
-    from autograder.submission_layout import Signature, another_years_ransacF
+    from autograder.submission.layout import Signature, another_years_ransacF
 
     assert another_years_ransacF(Signature(("pts1", "pts2", "M", "nIters", "tol"), 2))
     assert another_years_ransacF(Signature(("pts1", "pts2", "M")))

@@ -1,7 +1,7 @@
 """Hidden scenes are drawn per submission: hidden inputs a submission copies out are no use to another.
 
 Each submission is graded on its own draw of the hidden scenes, seeded by the grader's secret and
-a digest of the code the grader runs (``autograder.hidden.inputs.code_salt``): the same code
+a digest of the code the grader runs (``autograder.inputs.build.code_salt``): the same code
 gets the same scenes (a regrade, a folder or a zip, notebooks rewritten by nbgrader), other code
 other scenes; what does not depend on the submission (the default data and the reference's
 results on it) is the batch's, made once.  Results name the draw by a short digest only.
@@ -20,12 +20,12 @@ import nbformat
 import numpy as np
 import pytest
 
-from autograder.config import quick_config
-from autograder.run import GradingRun
-from autograder.hidden import inputs
-from autograder.hidden.scenes import FIXED_LABELS
+from autograder.inputs.config import quick_config
+from autograder.grading.run import GradingRun
+from autograder.inputs import build as inputs
+from autograder.inputs.scenes import FIXED_LABELS
 from autograder.sandbox import ResourceLimits, Sandbox
-from autograder.submission import load_submission
+from autograder.submission.read import load_submission
 
 pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
 
@@ -111,8 +111,8 @@ def test_q33s_right_camera_is_the_one_the_reference_chooses_even_from_a_poor_F(m
     # true pose. From a poor F, the points in front of both cameras can pick another candidate:
     # every correct findM2 would lose. Here the reference's F is the unrefined one (poor on the
     # quick scenes); each case must still expect what the reference's findM2 chooses.
-    from autograder.hidden.cases import pose as cases_pose
-    from autograder.hidden.scenes import make_scenes
+    from autograder.inputs.cases import pose as cases_pose
+    from autograder.inputs.scenes import make_scenes
     from core.geometry import fundamental_from_pose
     from solutions import eightpoint, findM2
 

@@ -38,7 +38,7 @@ import nbformat
 import pytest
 from corpus.hostile import HOSTILE_TEXTS, UNDECODABLE_NAME
 
-from autograder.config import quick_config
+from autograder.inputs.config import quick_config
 from core.manifest import NOTEBOOKS
 from core.paths import KIT_ROOT
 from judging.mistakes import KNOWN_MISTAKES

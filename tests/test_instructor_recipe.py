@@ -17,8 +17,8 @@ import sys
 
 import pytest
 
-from autograder.config import quick_config
-from autograder.key import write_key_submission
+from autograder.inputs.config import quick_config
+from autograder.grading.key import write_key_submission
 
 from core.paths import KIT_ROOT
 

@@ -76,8 +76,8 @@ def judged_apart(namespace: dict, key: dict) -> list[str]:
 
 @pytest.fixture(scope="module")
 def hidden():
-    from autograder.config import quick_config
-    from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.inputs.config import quick_config
+    from autograder.inputs.build import build_hidden_inputs
 
     return build_hidden_inputs(quick_config())
 

@@ -1,4 +1,4 @@
-"""The grader's keep (autograder.hidden.keep): what it keeps is what would be made, under a name
+"""The grader's keep (autograder.inputs.keep): what it keeps is what would be made, under a name
 that changes with anything it is made from; its folder is the grader's alone and hidden from
 student code."""
 
@@ -11,10 +11,10 @@ import stat
 import numpy as np
 import pytest
 
-from autograder.config import quick_config
-from autograder.hidden import inputs, keep
-from autograder.hidden.keep import ENV_KEEP, Keep
-from autograder.run import GradingRun
+from autograder.inputs.config import quick_config
+from autograder.inputs import build as inputs, keep
+from autograder.inputs.keep import ENV_KEEP, Keep
+from autograder.grading.run import GradingRun
 
 
 def _maker(value):

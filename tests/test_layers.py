@@ -185,8 +185,8 @@ def _module_graph(edges) -> dict[str, set[str]]:
     return graph
 
 
-def test_no_circle_between_modules(edges):
-    graph = _module_graph(edges)
+def circles_of(graph: dict[str, set[str]]) -> list[str]:
+    """Every circle a depth-first walk of ``graph`` (node -> the nodes it imports) meets, as "a -> b -> a"."""
     state: dict[str, int] = {}
     stack: list[str] = []
     circles: list[str] = []
@@ -194,7 +194,7 @@ def test_no_circle_between_modules(edges):
     def visit(m: str) -> None:
         state[m] = 1
         stack.append(m)
-        for n in sorted(graph[m]):
+        for n in sorted(graph.get(m, ())):
             if state.get(n) == 1:
                 circles.append(" -> ".join(stack[stack.index(n):] + [n]))
             elif n not in state:
@@ -205,12 +205,78 @@ def test_no_circle_between_modules(edges):
     for m in sorted(graph):
         if m not in state:
             visit(m)
+    return circles
+
+
+def test_no_circle_between_modules(edges):
+    circles = circles_of(_module_graph(edges))
     assert not circles, "import circles:\n" + "\n".join(circles)
+
+
+# autograder/'s folders by role, bottom to top (docs/architecture.md): a folder imports its own
+# modules and lower rows only.  The root holds the command line alone.
+AUTOGRADER_FOLDERS: tuple[tuple[int, str], ...] = (
+    (0, "autograder.sandbox"), (0, "autograder.submission"),
+    (1, "autograder.inputs"), (1, "autograder.feedback"),
+    (2, "autograder.review"),
+    (3, "autograder.grading"),
+    (4, "autograder.hidden"),
+    (5, "autograder.channels"),
+    (6, "autograder.channels.gradescope"), (6, "autograder.channels.nbgrader"), (6, "autograder.channels.cluster"),
+    (7, "autograder"),
+)
+
+
+def folder_of(module: str, packages: set[str]) -> str:
+    """A package's ``__init__`` belongs to its own folder; a module to the folder it lies in."""
+    return module if module in packages else module.rpartition(".")[0]
+
+
+def folder_graph(graph: dict[str, set[str]], packages: set[str]) -> dict[str, set[str]]:
+    """The folders' imports: a module's folder imports each folder it takes a module from."""
+    out: dict[str, set[str]] = {}
+    for src, targets in graph.items():
+        for t in targets:
+            a, b = folder_of(src, packages), folder_of(t, packages)
+            if a != b:
+                out.setdefault(a, set()).add(b)
+    return out
+
+
+def _packages() -> set[str]:
+    return {module_name(p) for p in shipped_files() if p.name == "__init__.py"}
+
+
+def test_no_circle_between_autograders_folders(edges):
+    """autograder/'s folders can be read one at a time: no two import each other, straight or round.
+
+    A parent's own modules count as the parent's: ``autograder/__main__.py`` importing a channel
+    while a channel imported ``autograder/config.py`` was such a circle.
+    """
+    folders = folder_graph(_module_graph(edges), _packages())
+    circles = [c for c in circles_of(folders) if c.startswith("autograder")]
+    assert not circles, "folders that import each other:\n" + "\n".join(circles)
+
+
+def test_autograders_folders_import_only_downward(edges):
+    rank = dict((name, layer) for layer, name in AUTOGRADER_FOLDERS)
+    folders = folder_graph(_module_graph(edges), _packages())
+    assert {f for f in _packages() if f.startswith("autograder")} == set(rank), "a folder without a row"
+    bad = [f"{a} ({rank[a]}) imports {b} ({rank[b]})" for a, targets in sorted(folders.items()) if a in rank
+           for b in sorted(targets) if b in rank and rank[b] >= rank[a]]
+    assert not bad, "autograder folders that import sideways or up:\n" + "\n".join(bad)
+
+
+def test_a_circle_between_folders_is_seen():
+    graph = {"kit.a.x": {"kit.b.y"}, "kit.b.y": set(), "kit.b.z": {"kit.a"}, "kit.a": set(), "kit.c.w": {"kit.a.x"}}
+    folders = folder_graph(graph, {"kit.a", "kit.b", "kit.c"})
+    assert folders == {"kit.a": {"kit.b"}, "kit.b": {"kit.a"}, "kit.c": {"kit.a"}}
+    assert circles_of(folders) == ["kit.a -> kit.b -> kit.a"]
 
 
 @pytest.mark.parametrize("module, layer", [("core.geometry", 0), ("core.rotations", 0), ("judging.bundle", 2),
                                            ("starter.checks.fundamental", 3), ("starter.epipolar", 3),
-                                           ("autograder.hidden.x", 7)])
+                                           ("autograder.hidden.x", 7), ("autograder.inputs.config", 7)])
 def test_package_of(module, layer):
     assert package_of(module)[0] == layer
 

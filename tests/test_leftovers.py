@@ -162,8 +162,8 @@ def test_making_a_sandbox_sweeps_the_temporary_directory():
 # must outlive it (only the process that made a run's folder and workers removes or stops them).
 FORKING_GRADER = textwrap.dedent('''
     import atexit, os, sys
-    from autograder.config import quick_config
-    from autograder.run import GradingRun
+    from autograder.inputs.config import quick_config
+    from autograder.grading.run import GradingRun
     from autograder.sandbox import leftovers
     run = GradingRun(quick_config())
     run._cache, run._cache_fd = leftovers.owned_folder("hw4-hidden-")  # as make_inputs does, without the inputs

@@ -10,10 +10,10 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from autograder import config as grader_config
-from autograder.config import configuration, load_config, quick_config
-from autograder.gradebook import BatchRecord, write_summary
-from autograder.results import QuestionResult, SubmissionResult, TestResult
+from autograder.inputs import config as grader_config
+from autograder.inputs.config import configuration, load_config, quick_config
+from autograder.channels.gradebook import BatchRecord, write_summary
+from autograder.feedback.results import QuestionResult, SubmissionResult, TestResult
 from autograder.review.__main__ import main
 from autograder.review.library_calls import find_in_class, find_library_calls
 from core.paths import KIT_ROOT

@@ -4,7 +4,7 @@ Matchers written the ways hand-ins write them (not the kit's reference) must get
 Q4.2 marks on hidden draws of several secrets and on the public self-check; wrong matchers must
 still lose Q4.1, and a matcher that searches the line F^T x1, or that never leaves rows y1 +- 10,
 at least half of it (the hidden matching temples and their points are chosen so that they can
-tell: autograder.hidden.cases.correspondence, solutions.matching_styles.scene_problem); a
+tell: autograder.inputs.correspondence, solutions.matching_styles.scene_problem); a
 2022-2024 compute3D_pts returning (M2, C2, P), or writing to result/, is judged by its structure.
 The public self-check's goals are a committed file: it must equal a fresh computation.
 ``benchmarks/matching_discrimination.py`` gives the same verdicts under the sweep's 20 secrets.
@@ -15,9 +15,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from autograder.config import quick_config
-from autograder.hidden.inputs import build_hidden_inputs
-from autograder.hidden.keep import default_keep
+from autograder.inputs.config import quick_config
+from autograder.inputs.build import build_hidden_inputs
+from autograder.inputs.keep import default_keep
 from autograder.hidden.plugin import LocalStudent, run_here
 from judging import correspondence as jc
 

@@ -1,13 +1,13 @@
 """Q6's hidden cases have keypoints whose confident views are (1, 3) and (2, 3), not only (1, 2):
 a reconstruction that, given exactly two confident views, always takes views 1 and 2 then uses a
-detection at or below Thres that lands 40-80 px off (autograder.hidden.cases.multiview)."""
+detection at or below Thres that lands 40-80 px off (autograder.inputs.multiview)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from autograder.hidden.cases.multiview import _PAIRS, _PER_PAIR, _occluded_views, _probe
+from autograder.inputs.multiview import _PAIRS, _PER_PAIR, _occluded_views, _probe
 from scenes.car import make_car_scene
 
 

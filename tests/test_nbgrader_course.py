@@ -24,8 +24,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from autograder import nbgrader_course as nc
-from autograder.config import load_config, quick_config
+from autograder.channels.nbgrader import course as nc
+from autograder.inputs.config import load_config, quick_config
 from core.manifest import NOTEBOOKS, QUESTIONS, question
 from core.paths import KIT_ROOT
 
@@ -142,7 +142,7 @@ def test_the_gradebook_opens_from_a_shell_without_the_environment_on_path(tmp_pa
     """nbgrader's Gradebook runs ``alembic`` from PATH: a grader started as .venv/bin/python, its
     environment not activated, still finds the one beside its Python, and PATH is left as it was."""
     pytest.importorskip("nbgrader")
-    from autograder.nbgrader_course import gradebook
+    from autograder.channels.nbgrader.course import gradebook
 
     bare = os.pathsep.join(p for p in ("/usr/bin", "/bin") if Path(p).is_dir())
     monkeypatch.setenv("PATH", bare)
@@ -186,7 +186,7 @@ def test_scoring_needs_the_courses_own_secret_and_a_gradebook(tmp_path, monkeypa
 
 @needs_nbgrader
 def test_the_canary_runs_before_any_student_and_a_failed_one_refuses(tmp_path, monkeypatch):
-    from autograder import canary
+    from autograder.grading import canary
 
     course = tmp_path / "course"
     (course / "submitted").mkdir(parents=True)
@@ -268,8 +268,8 @@ def test_a_picture_output_renders_as_an_image_with_its_alt_text_and_quotes_stay_
 
     from nbconvert import HTMLExporter
 
-    from autograder.nbgrader_pictures import cell_outputs
-    from autograder.pictures import contract
+    from autograder.channels.nbgrader.pictures import cell_outputs
+    from autograder.feedback.pictures import contract
 
     png = tiny_png()
     alt = 'epipolar lines "><script>alert(1)</script> & \x1b[31mred\u202e'

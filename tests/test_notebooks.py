@@ -782,7 +782,7 @@ def test_nbgrader_release_of_the_source_is_the_student_notebook(tmp_path):
     shutil.copytree(nbk.output_path(NOTEBOOKS[0], "nbgrader").parent, tmp_path / "source" / "hw4")
     (tmp_path / "nbgrader_config.py").write_text(
         f"c = get_config()\nc.CourseDirectory.course_id = 'hw4'\nc.CourseDirectory.root = {str(tmp_path)!r}\n")
-    from autograder.nbgrader_course import run_nbgrader
+    from autograder.channels.nbgrader.course import run_nbgrader
 
     run_nbgrader(tmp_path, "generate_assignment", "hw4", "--force", timeout=300)   # raises with the log on failure
     for stem in NOTEBOOKS:

@@ -31,13 +31,13 @@ HOMES = {
     "default_car": "scenes/defaults.py",        # the scene behind data/q6
     "residual_case": "solutions/expected.py",   # the handout's residuals an input must give (grader-side only)
     "eightpoint_scale": "core/geometry.py",     # M = max(width, height)
-    "RESTARTS_BUDGETED": "autograder/budget.py",  # the session budget's restarts (the run and the plugin use it)
+    "RESTARTS_BUDGETED": "autograder/grading/budget.py",  # the session budget's restarts (the run and the plugin use it)
 }
 
 # Names tolerated in a second file for now, as an xfail only: name -> those files.  Once their
 # copies are gone the test fails until the entry is removed here.  (The copies of KIT_ROOT in
-# autograder/grade.py, gradescope.py and key.py and of the budget's restarts in grade.py and the
-# plugin went with the grading run, autograder/run.py and autograder/budget.py.)
+# autograder/grading/grade.py, gradescope.py and key.py and of the budget's restarts in grade.py and the
+# plugin went with the grading run, autograder/grading/run.py and autograder/grading/budget.py.)
 PENDING: dict[str, set[str]] = {}
 
 

@@ -1,11 +1,11 @@
 """The picture step's time budget is CPU time, as the checks' limits, and its calls carry the
-student's parameters as written (``autograder.pictures``, on a recording stand-in of a session)."""
+student's parameters as written (``autograder.feedback.pictures``, on a recording stand-in of a session)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from autograder import pictures as step
+from autograder.feedback import pictures as step
 from autograder.sandbox import CallOutcome
 from judging.conventions import Signature, findM2_style, signature_of_callable
 from tests import picture_standin

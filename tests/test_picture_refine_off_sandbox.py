@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 
 import corpus
-from autograder import pictures as step
+from autograder.feedback import pictures as step
 from autograder.hidden.plugin import LocalStudent, Student
 from autograder.sandbox import ResourceLimits, Sandbox
 from corpus import variants
@@ -149,8 +149,8 @@ def test_a_switched_off_request_reports_each_inputs_count_and_nothing_forged():
 def q2_figures(tmp_path_factory) -> dict:
     """name -> the Q2 entry of the submission's figures index (title, alt, measures, file)."""
     pytest.importorskip("starter.checks.pictures", reason="the pictures module is not in this kit yet")
-    from autograder.batch import grade_batch
-    from autograder.config import quick_config
+    from autograder.channels.batch import grade_batch
+    from autograder.inputs.config import quick_config
 
     root = tmp_path_factory.mktemp("refine_off")
     paths = []

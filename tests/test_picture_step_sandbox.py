@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import corpus
-from autograder import pictures as step
+from autograder.feedback import pictures as step
 from autograder.hidden.plugin import Student
 from autograder.sandbox import ResourceLimits, Sandbox
 from tests import picture_standin
@@ -71,8 +71,8 @@ def _public_points() -> np.ndarray:
 
 def test_a_hang_on_the_public_data_costs_the_picture_never_the_grade(tmp_path):
     pytest.importorskip("starter.checks.pictures", reason="the pictures module is not in this kit yet")
-    from autograder.batch import grade_batch
-    from autograder.config import quick_config
+    from autograder.channels.batch import grade_batch
+    from autograder.inputs.config import quick_config
 
     first = _public_points()[:3].tolist()
     folder = corpus.build("key_full_marks", tmp_path / "subs")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import solutions
-from autograder import pictures as step
+from autograder.feedback import pictures as step
 from autograder.hidden.plugin import LocalStudent
 from starter.checks import pictures
 

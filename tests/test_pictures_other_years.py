@@ -16,10 +16,12 @@ import json
 import pytest
 import realstyles
 
-from autograder import feedback_page, gradescope_pictures, nbgrader_pictures
-from autograder.config import quick_config
-from autograder.pictures import NOT_DRAWN, figures_of
-from autograder.run import GradingRun
+from autograder.feedback import page as feedback_page
+from autograder.channels.gradescope import pictures as gradescope_pictures
+from autograder.channels.nbgrader import pictures as nbgrader_pictures
+from autograder.inputs.config import quick_config
+from autograder.feedback.pictures import NOT_DRAWN, figures_of
+from autograder.grading.run import GradingRun
 from autograder.sandbox import ResourceLimits
 
 pytestmark = pytest.mark.slow

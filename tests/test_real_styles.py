@@ -39,7 +39,7 @@ import breadth
 import realstyles
 from realstyles import PROGRAMS, QUESTION_FUNCTIONS
 
-from autograder.config import quick_config
+from autograder.inputs.config import quick_config
 
 pytestmark = pytest.mark.slow
 
@@ -206,8 +206,8 @@ _WORK: dict = {}  # secret -> [(program run, [(concept, program names sharing it
 
 
 def _grade_secret(secret: str):
-    from autograder.hidden.inputs import build_hidden_inputs
-    from autograder.hidden.keep import default_keep
+    from autograder.inputs.build import build_hidden_inputs
+    from autograder.inputs.keep import default_keep
     from test_secret_sweep import grade
 
     hidden = build_hidden_inputs(quick_config(secret=secret), keep=default_keep())  # the suite's keep

@@ -116,9 +116,9 @@ def helper(monkeypatch):
 
 @pytest.fixture(scope="module")
 def fundamental():
-    from autograder.config import quick_config
-    from autograder.hidden.cases.fundamental import prepare_fundamental
-    from autograder.hidden.scenes import make_scenes
+    from autograder.inputs.config import quick_config
+    from autograder.inputs.fundamental import prepare_fundamental
+    from autograder.inputs.scenes import make_scenes
 
     return prepare_fundamental(make_scenes(quick_config()))
 
@@ -264,7 +264,7 @@ def test_a_valid_eightpoint_keeps_full_marks_by_the_new_routes(route, helper, fu
 def test_the_sandbox_switches_off_faithfully(fundamental):
     from autograder.hidden.plugin import Student
     from autograder.sandbox import ResourceLimits, Sandbox
-    from autograder.submission import SourceUnit
+    from autograder.submission.read import SourceUnit
 
     limits = ResourceLimits(memory_bytes=2 * 2**30, processes=48, grace=1.0)
     inner = _route(variants.EIGHTPOINT_TRANSPOSED_REFINED, "own helper imported inside")[0]
@@ -396,11 +396,11 @@ def test_the_grader_polishes_each_set_of_arguments_once_and_answers_as_the_polis
 
 
 def test_the_grader_keeps_polished_results_in_the_runs_keep(monkeypatch, tmp_path):
-    # With a keep (autograder.hidden.keep), a later grading process reads the polish back.
+    # With a keep (autograder.inputs.keep), a later grading process reads the polish back.
     from collections import OrderedDict
 
     import starter.refine_polish as refine_polish
-    from autograder.hidden.keep import Keep
+    from autograder.inputs.keep import Keep
     from autograder.sandbox import helpers
 
     real, calls = refine_polish.polish, []

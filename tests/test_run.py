@@ -10,13 +10,13 @@ import os
 
 import pytest
 
-from autograder import run as run_module
-from autograder.config import configuration, quick_config
-from autograder.config import tests_fingerprint as checks_fingerprint  # not a test of its own
-from autograder.hidden import inputs
-from autograder.pictures import figures_of
-from autograder.results import SubmissionResult
-from autograder.run import GradingRun
+from autograder.grading import run as run_module
+from autograder.inputs.config import configuration, quick_config
+from autograder.inputs.config import tests_fingerprint as checks_fingerprint  # not a test of its own
+from autograder.inputs import build as inputs
+from autograder.feedback.pictures import figures_of
+from autograder.feedback.results import SubmissionResult
+from autograder.grading.run import GradingRun
 from autograder.sandbox import ResourceLimits
 from starter.checks.pictures import QUESTIONS
 from tests import corpus

@@ -42,7 +42,7 @@ import nbformat
 import pytest
 from corpus import hostile, variants
 
-from autograder.config import quick_config
+from autograder.inputs.config import quick_config
 from core.paths import KIT_ROOT
 from test_sandbox_leaks import full_marks, in_container, key_with, owned_by
 

@@ -22,7 +22,7 @@ import nbformat
 import pytest
 from corpus import hostile
 
-from autograder.results import autograded_question_ids
+from autograder.feedback.results import autograded_question_ids
 from core.manifest import question
 from core.paths import KIT_ROOT
 

@@ -20,7 +20,7 @@ import numpy as np
 import parallel
 import pytest
 
-from autograder.config import GradingConfig, quick_config
+from autograder.inputs.config import GradingConfig, quick_config
 from scenes import envelope
 
 SECRETS = breadth.secrets("sweep-secret")   # tests/test_secret_sweep.py's
@@ -29,8 +29,8 @@ CONFIGS = {"quick_config": quick_config, "GradingConfig": GradingConfig}
 
 def _draw_problems(item) -> list[str]:
     """What of the hidden draw of (config name, secret) is outside the envelope (module level: forked)."""
-    from autograder.hidden.cases.correspondence import matching_scenes
-    from autograder.hidden.scenes import make_scenes
+    from autograder.inputs.correspondence import matching_scenes
+    from autograder.inputs.scenes import make_scenes
 
     name, secret = item
     config = CONFIGS[name](secret=secret)
@@ -142,7 +142,7 @@ def test_E_over_its_last_entry_passes_the_hidden_Q31_test():
     import contextlib
     import io
 
-    from autograder.hidden.inputs import build_hidden_inputs
+    from autograder.inputs.build import build_hidden_inputs
     from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 
     hidden = build_hidden_inputs(quick_config(secret=SECRETS[0]))
@@ -180,8 +180,8 @@ def _windows_fit(im, xy) -> bool:
 
 @pytest.mark.slow  # makes the hidden scenes of a draw (about 4 s): the full tier's, as the sweep above
 def test_a_101px_window_fits_around_every_chosen_point_of_the_hidden_draws():
-    from autograder.hidden.cases.correspondence import matching_scenes, prepare_correspondence
-    from autograder.hidden.scenes import make_scenes
+    from autograder.inputs.correspondence import matching_scenes, prepare_correspondence
+    from autograder.inputs.scenes import make_scenes
 
     scenes = make_scenes(quick_config(secret=SECRETS[0]))
     for case in prepare_correspondence(scenes).cases:

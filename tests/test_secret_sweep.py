@@ -1,7 +1,7 @@
 """Grades do not depend on the secret beyond noise: the corpus graded under many secrets.
 
 For each secret, the hidden inputs of ``quick_config(secret=...)`` are built once
-(``autograder.hidden.inputs.build_hidden_inputs``: the batch's inputs, which every program of
+(``autograder.inputs.build.build_hidden_inputs``: the batch's inputs, which every program of
 the secret shares; the grader draws each submission's own from the secret and its code, which the
 secrets stand in for: CI's first 2, all 20 with ``HW4_SWEEP_ALL=1``, see tests/breadth.py) and the kit's valid alternatives and mistakes are graded by the real
 hidden tests, in this process (``autograder.hidden.plugin.run_here`` on a ``LocalStudent`` of the
@@ -252,9 +252,9 @@ _PROGRAMS: list[Program] = []  # set before the workers fork: they inherit it (f
 def grade_secret(secret: str) -> tuple[str, dict]:
     """(secret, program -> its graded questions) with the hidden inputs of ``quick_config(secret=secret)``
     built once for all the programs."""
-    from autograder.config import quick_config
-    from autograder.hidden.inputs import build_hidden_inputs
-    from autograder.hidden.keep import default_keep
+    from autograder.inputs.config import quick_config
+    from autograder.inputs.build import build_hidden_inputs
+    from autograder.inputs.keep import default_keep
 
     started = time.perf_counter()
     hidden = build_hidden_inputs(quick_config(secret=secret), keep=default_keep())  # the suite's keep

@@ -13,11 +13,12 @@ from types import SimpleNamespace
 
 import pytest
 
-from autograder import budget, gradescope
-from autograder import run as run_module
-from autograder.config import quick_config
-from autograder.hidden import inputs
-from autograder.hidden.inputs import HiddenInputs
+from autograder.grading import budget
+from autograder.channels.gradescope import bundle as gradescope
+from autograder.grading import run as run_module
+from autograder.inputs.config import quick_config
+from autograder.inputs import build as inputs
+from autograder.inputs.build import HiddenInputs
 from autograder.sandbox import Isolation, ResourceLimits
 
 CALL_SECONDS = 123.0  # what the fake checks may give student code in all, at time_scale 1

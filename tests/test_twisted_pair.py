@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from autograder.config import quick_config
-from autograder.hidden.inputs import build_hidden_inputs
-from autograder.hidden.keep import default_keep
+from autograder.inputs.config import quick_config
+from autograder.inputs.build import build_hidden_inputs
+from autograder.inputs.keep import default_keep
 from autograder.hidden.plugin import HIDDEN_DIR, LocalStudent, run_here
 from core.geometry import IDENTITY_POSE, depths
 from judging import pose as jp

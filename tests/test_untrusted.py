@@ -26,11 +26,11 @@ import mistune
 import pytest
 from corpus.hostile import HOSTILE_TEXTS, UNDECODABLE_NAME
 
-from autograder.batch import submission_digest
-from autograder.regrade import Change, write_diff
-from autograder.results import QuestionResult, SubmissionResult, TestResult
+from autograder.channels.batch import submission_digest
+from autograder.channels.regrade import Change, write_diff
+from autograder.feedback.results import QuestionResult, SubmissionResult, TestResult
 from autograder.review.report import build_report, write_report
-from autograder.submission import load_submission
+from autograder.submission.read import load_submission
 from core.untrusted import csv_text, for_csv_cell, for_html, for_json, for_markdown, for_terminal, visible
 
 HOSTILE = list(HOSTILE_TEXTS.values()) + [UNDECODABLE_NAME.decode("utf-8", "surrogateescape")]
@@ -193,7 +193,7 @@ def test_a_symbolic_link_in_a_zip_is_said_with_its_name_escaped(tmp_path):
 def test_a_feedback_line_of_student_text_carries_no_escape_sequence_or_control():
     """Where the hidden tests take a student's message in (their own failure report in a TA's
     terminal prints it), the escapes are gone and the controls shown, before any writer escapes it."""
-    from autograder.hidden.feedback import exception_sentence, tidy
+    from autograder.feedback.words import exception_sentence, tidy
 
     for text in HOSTILE:
         for line in (tidy(text), exception_sentence(f"ValueError: {text}")):

@@ -5,9 +5,8 @@ marker; the student's functions are called through a sandbox session (the ``stud
 and judged in the pytest process by ``judging/<concept>.py``.  ``test_<concept>.py`` holds a
 concept's tests and a session fixture that makes its calls once (several checks judge the same
 outputs).  ``plugin.py`` holds the fixtures and turns test reports into the results model;
-``scenes.py`` makes the hidden scenes, ``cases/`` (one module per concept) cuts every concept's inputs from them (with
-the reference's results), ``inputs.py`` makes and caches them once per batch; ``feedback.py``
-words failed calls and merges feedback lines; ``worker.py`` runs one pytest session after another
-for the grader.  The CLI, Gradescope and the nbgrader course all grade a submission by running
-these tests (``autograder.run.GradingRun``).
+``worker.py`` runs one pytest session after another for the grader.  What the checks are given
+lives in ``autograder/inputs/`` (the hidden scenes, each concept's cases, made once per run) and
+what they say in ``autograder/feedback/words.py``.  The CLI, Gradescope and the nbgrader course all grade a submission by running
+these tests (``autograder.grading.run.GradingRun``).
 """

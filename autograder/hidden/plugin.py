@@ -18,16 +18,16 @@ A test that passes earns its points (times ``score.fraction`` when given); one t
 error is the grader's: zero with "internal error" for the student and the traceback for staff.
 ``score.record(...)`` lets a test report finished ``TestResult``/``QuestionResult`` objects.
 
-Options used by the grader (``autograder.run``): ``--hidden-cache`` (the run's folder, saved by
-``autograder.hidden.inputs.save``: the hidden inputs made once, their ``GradingConfig``, and the
+Options used by the grader (``autograder.grading.run``): ``--hidden-cache`` (the run's folder, saved by
+``autograder.inputs.build.save``: the hidden inputs made once, their ``GradingConfig``, and the
 run's configuration record; the session's one configuration, so no config file is given with it;
-each submission gets its own draw of the inputs, ``autograder.hidden.inputs.draw``, and the result
+each submission gets its own draw of the inputs, ``autograder.inputs.build.draw``, and the result
 is written finished here, stamped with the record, the sandbox level and the draw's short digest,
 ``configuration["draw"]``, never amended by the grader), ``--sandbox-spec`` (the grader's sandbox,
 not probed again), ``--results`` (the ``SubmissionResult`` as JSON, with what staff should see),
-``--student-id``, ``--budget`` (the run's, ``autograder.budget``), ``--pictures`` (after the
+``--student-id``, ``--budget`` (the run's, ``autograder.grading.budget``), ``--pictures`` (after the
 checks, the unscored picture step of ``test_pictures.py``; its record goes into the results file
-as ``pictures``, for ``autograder.pictures.decode``).  By hand, without ``--hidden-cache``, the
+as ``pictures``, for ``autograder.feedback.pictures.figures_of``).  By hand, without ``--hidden-cache``, the
 configuration is ``--grading-config`` (else ``$HW4_GRADER_CONFIG``, else the defaults), the
 inputs are made in the session and the result records the draw only.
 """
@@ -48,7 +48,7 @@ import pytest
 from core.manifest import QUESTIONS, question
 from core.untrusted import for_terminal
 
-from .feedback import failure, named_mistakes, notes, tidy, upstream_named
+from autograder.feedback.words import failure, named_mistakes, notes, tidy, upstream_named
 
 __all__ = ["HIDDEN_DIR", "CheckFailed", "Local", "config_of", "run_here", "LocalStudent", "Score", "Student", "StudentError"]
 
@@ -288,10 +288,10 @@ class RunState:
     _submission: object | None = None
 
     def submission(self, path):
-        """The parsed submission at ``path`` (``autograder.submission.Submission``): read once,
+        """The parsed submission at ``path`` (``autograder.submission.read.Submission``): read once,
         whichever part of the session asks first.  Raises ``SubmissionError`` when unreadable."""
         if self._submission is None:
-            from autograder.submission import load_submission
+            from autograder.submission.read import load_submission
 
             self._submission = load_submission(path)
         return self._submission
@@ -314,18 +314,18 @@ def pytest_addoption(parser):
     g.addoption("--results", default=None, help="write the SubmissionResult (JSON) here")
     g.addoption("--student-id", default=None, help="the gradebook name of the submission")
     g.addoption("--budget", type=float, default=None, help="seconds for the whole submission (default: from the checks)")
-    g.addoption("--keep", default=None, help="the run's keep folder (autograder.hidden.keep): draws made before")
+    g.addoption("--keep", default=None, help="the run's keep folder (autograder.inputs.keep): draws made before")
     g.addoption("--secret-scenes", action="store_true", default=False,
                 help="grade on the batch's own inputs (the scenes of the secret alone), not on the submission's "
                      "draw: the canary's session")
     g.addoption("--pictures", action="store_true", default=False,
-                help="after the checks, run the unscored picture step on the public data (autograder.pictures)")
+                help="after the checks, run the unscored picture step on the public data (autograder.feedback.pictures)")
 
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "points(value, question, name=None, visibility='visible'): "
                                        "what a hidden check is worth and which question it counts for")
-    config.addinivalue_line("markers", "picture: the unscored picture step (autograder.pictures), run after every check")
+    config.addinivalue_line("markers", "picture: the unscored picture step (autograder.feedback.pictures), run after every check")
     if config.getoption("--hidden-cache", None) and config.getoption("--grading-config", None):
         # The cache holds the configuration its inputs were made under: a second one could disagree.
         raise pytest.UsageError("--grading-config: expected none with --hidden-cache (the cache holds "
@@ -334,13 +334,13 @@ def pytest_configure(config):
 
 
 def _saved(config):
-    """The run's cache (``autograder.hidden.inputs.Saved``: inputs, their config, the run's record)
+    """The run's cache (``autograder.inputs.build.Saved``: inputs, their config, the run's record)
     named by ``--hidden-cache``, or None.  A grading worker runs one session after another: each
     run's folder is loaded once (``inputs.load_saved`` checks it is the grader's own)."""
     cache = config.getoption("--hidden-cache", None)
     if not cache:
         return None
-    from autograder.hidden import inputs
+    from autograder.inputs import build as inputs
 
     folder = Path(cache).resolve()
     st = (folder / inputs.SAVED_NAME).stat()
@@ -354,14 +354,14 @@ def _saved(config):
 def config_of(config):
     """The ``GradingConfig`` of a pytest run (known at collection: tests may be parametrized by it):
     a ``Local`` plugin's inputs', else the run cache's (``--hidden-cache``), else by hand
-    ``--grading-config`` (``autograder.config.load_config``: the file, $HW4_GRADER_CONFIG, the defaults)."""
+    ``--grading-config`` (``autograder.inputs.config.load_config``: the file, $HW4_GRADER_CONFIG, the defaults)."""
     local = _local(config)
     if local is not None and getattr(local, "hidden", None) is not None:
         return local.hidden.config
     saved = _saved(config)
     if saved is not None:
         return saved.hidden.config
-    from autograder.config import load_config
+    from autograder.inputs.config import load_config
 
     return load_config(config.getoption("--grading-config"))
 
@@ -373,13 +373,13 @@ def grading_config(request):
 
 @pytest.fixture(scope="session")
 def hidden(request, grading_config):
-    """The hidden inputs (``autograder.hidden.inputs.HiddenInputs``) of this submission: its own
+    """The hidden inputs (``autograder.inputs.build.HiddenInputs``) of this submission: its own
     draw (``inputs.draw``, seeded by the secret and the digest of its code) of the batch's inputs,
     which come from the batch's cache or are made here.  A ``Local`` plugin's inputs, or a cache
     holding a draw already, are used as they are; without ``--submission`` or with
     ``--secret-scenes`` (the canary), the batch's."""
-    from autograder.hidden import inputs
-    from autograder.hidden.keep import Keep
+    from autograder.inputs import build as inputs
+    from autograder.inputs.keep import Keep
 
     local = _local(request.config)
     if local is not None and getattr(local, "hidden", None) is not None:
@@ -402,9 +402,9 @@ def _draw(batch, salt: str, keep=None):
     The same code always gets the same draw, so this process keeps its last few, by salt, and
     hands the next submission of the same code (copies of the answer key, students handing in the
     untouched notebooks, a regrade) a copy instead of making it again (about 3 s); the run's
-    ``keep`` (``autograder.hidden.keep``), when it has one, holds those of earlier runs.  A
+    ``keep`` (``autograder.inputs.keep``), when it has one, holds those of earlier runs.  A
     submission of other code never sees them: its salt is another."""
-    from autograder.hidden import inputs
+    from autograder.inputs import build as inputs
 
     key = (id(batch), salt)
     if key not in _drawn:
@@ -444,7 +444,7 @@ def pytest_collection_modifyitems(session, config, items):
     path = config.getoption("--submission")
     if not path or _local(config) is not None:
         return
-    from autograder.submission import SubmissionError
+    from autograder.submission.read import SubmissionError
 
     try:
         sub = config.hw4.submission(path)
@@ -460,7 +460,7 @@ def pytest_collection_modifyitems(session, config, items):
 
 @pytest.fixture(scope="session")
 def submission(request):
-    """The parsed submission (``autograder.submission.Submission``), read once per run."""
+    """The parsed submission (``autograder.submission.read.Submission``), read once per run."""
     path = request.config.getoption("--submission")
     if not path:
         raise pytest.UsageError("--submission: expected the path of a submission to grade, got none")
@@ -494,10 +494,10 @@ def student(request, grading_config, hidden):
     # The run that started this session gives its budget; by hand, the same definition is used here.
     budget = request.config.getoption("--budget")
     if not budget:
-        from autograder.budget import budget_of
+        from autograder.grading.budget import budget_of
 
         budget = budget_of(hidden, sandbox.limits)
-    from autograder.hidden.keep import Keep
+    from autograder.inputs.keep import Keep
     from autograder.sandbox import helpers
 
     keep = request.config.getoption("--keep")
@@ -554,7 +554,7 @@ def pytest_runtest_makereport(item, call):
         return
     if call.when == "setup" and report.passed:
         return
-    from autograder.results import QuestionResult, TestResult
+    from autograder.feedback.results import QuestionResult, TestResult
 
     points, qid, name, visibility = marker
     store = item.config.hw4.results
@@ -592,7 +592,7 @@ def pytest_runtest_makereport(item, call):
 def collect_result(config):
     """The ``SubmissionResult`` of this run (questions in manifest order, then any other question), or
     a failed one when the submission could not be read."""
-    from autograder.results import QuestionResult, SubmissionResult
+    from autograder.feedback.results import QuestionResult, SubmissionResult
 
     state = config.hw4
     if state.failure:
@@ -651,7 +651,7 @@ def _spec_isolation(config) -> dict | None:
 
 def _stamp(config, isolation: dict | None, draw: str | None) -> dict | None:
     """How this result was graded: the run's record (saved in ``--hidden-cache`` with the inputs,
-    ``autograder.config.configuration``) with the sandbox level and the draw's digest; by hand,
+    ``autograder.inputs.config.configuration``) with the sandbox level and the draw's digest; by hand,
     without a run, the draw only."""
     saved = _saved(config)
     record = saved.record if saved is not None else None
@@ -680,7 +680,7 @@ def _note_own_helpers(config, by_q: dict) -> None:
     their own says so: the result may come from their helper, not from the function checked."""
     from dataclasses import replace
 
-    from autograder.submission import own_helper_note
+    from autograder.submission.read import own_helper_note
     from core.manifest import GIVEN_HELPERS
 
     own = _own_helpers(config)

@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import pytest
 
-from autograder.hidden.cases import M1, SECONDS
-from autograder.hidden.feedback import read_returned
+from autograder.inputs.cases import M1, SECONDS
+from autograder.feedback.words import read_returned
 from judging import bundle as jb
 from judging.verdict import Malformed, figure_text
 
@@ -27,7 +27,7 @@ _PROBLEMS = 2   # the hidden scenes' first two (config.temples has at least two)
 
 @pytest.fixture(scope="session")
 def bundle(hidden):
-    """The prepared inputs (``autograder.hidden.cases.bundle.Bundle``)."""
+    """The prepared inputs (``autograder.inputs.bundle.Bundle``)."""
     return hidden.prepared["bundle"]
 
 

@@ -7,7 +7,7 @@ SAD, NCC, Gaussian-weighted; 5 to 101 px; local and whole-line search) reaches o
 Full marks at 70 % of it, nothing at 20 % of it, linear between (the handout asks for the easy
 points, not every point).  The hidden scenes are matching temples of their own, at the official
 pair's pixel scale, and the points judged are those whose match no +-10 px box and no point of
-the line F^T x1 comes within tolerance of (autograder.hidden.cases.correspondence): searching the
+the line F^T x1 comes within tolerance of (autograder.inputs.correspondence): searching the
 wrong line or never leaving a small box then loses most of the question.
 
 Q4.2, on hidden scene 2's matching temple, its easy points spread over every depth: the
@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from autograder.hidden.cases import SECONDS, matching_labels
-from autograder.hidden.feedback import called_as, failure, read_returned, returned
+from autograder.inputs.cases import SECONDS, matching_labels
+from autograder.feedback.words import called_as, failure, read_returned, returned
 from autograder.hidden.plugin import config_of
 from starter.data import course_image
 from judging import correspondence as jc
@@ -123,7 +123,7 @@ def best_match(student, case) -> Matched:
 
 @pytest.fixture(scope="session")
 def correspondence(hidden):
-    """The prepared inputs (``autograder.hidden.cases.correspondence.Correspondence``)."""
+    """The prepared inputs (``autograder.inputs.correspondence.Correspondence``)."""
     return hidden.prepared["correspondence"]
 
 

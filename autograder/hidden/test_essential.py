@@ -9,15 +9,15 @@ from __future__ import annotations
 
 import pytest
 
-from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import read_returned
+from autograder.inputs.cases import SECONDS
+from autograder.feedback.words import read_returned
 from judging import essential as je
 from judging.verdict import Malformed
 
 
 @pytest.fixture(scope="session")
 def essential(hidden):
-    """The prepared inputs (``autograder.hidden.cases.essential.Essential``)."""
+    """The prepared inputs (``autograder.inputs.essential.Essential``)."""
     return hidden.prepared["essential"]
 
 

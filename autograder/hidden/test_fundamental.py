@@ -34,8 +34,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import called_as, read_returned
+from autograder.inputs.cases import SECONDS
+from autograder.feedback.words import called_as, read_returned
 from judging import fundamental as jf
 from judging.verdict import Malformed, Verdict, figure_text
 
@@ -47,7 +47,7 @@ _OFF_NOTE = ("switched off: refineF skipped its minimisation and returned the cl
 
 @pytest.fixture(scope="session")
 def fundamental(hidden):
-    """The prepared inputs (``autograder.hidden.cases.fundamental.Fundamental``)."""
+    """The prepared inputs (``autograder.inputs.fundamental.Fundamental``)."""
     return hidden.prepared["fundamental"]
 
 

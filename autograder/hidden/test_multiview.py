@@ -21,8 +21,8 @@ import itertools
 import numpy as np
 import pytest
 
-from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import called_as, read_returned
+from autograder.inputs.cases import SECONDS
+from autograder.feedback.words import called_as, read_returned
 from judging import multiview as jm
 from judging.verdict import Malformed, figure_text, read_array
 
@@ -34,7 +34,7 @@ _AXES = [(perm, signs) for perm in itertools.permutations(range(3))
 
 @pytest.fixture(scope="session")
 def multiview(hidden):
-    """The prepared inputs (``autograder.hidden.cases.multiview.Multiview``)."""
+    """The prepared inputs (``autograder.inputs.multiview.Multiview``)."""
     return hidden.prepared["multiview"]
 
 

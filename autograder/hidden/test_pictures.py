@@ -1,13 +1,13 @@
 """The unscored picture step: what the student's functions do on the PUBLIC data, for the figures
-of their feedback (``autograder.pictures``).
+of their feedback (``autograder.feedback.pictures``).
 
 It runs only when the grader asks for pictures (``--pictures``), after every scored check (the
 plugin orders the ``picture`` items last), one test per question of
 ``starter.checks.pictures.QUESTIONS``.  The student's functions run in the sandbox session of the
-checks, each call within ``autograder.pictures.SECONDS`` of CPU time, and are called by the
+checks, each call within ``autograder.feedback.pictures.SECONDS`` of CPU time, and are called by the
 parameters the student wrote (the checks' ``signatures``: another year's findM2 or
 compute3D_pts gets its year's call, as in the checks); what they return is checked once and
-drawn here from the checked arrays (``autograder.pictures.picture_record``: this process never
+drawn here from the checked arrays (``autograder.feedback.pictures.picture_record``: this process never
 runs student code).  Whatever they do, the test passes and records either the picture or the
 sentence "figure not drawn: ...".  It has no ``points`` marker: it never counts in the result.
 
@@ -17,7 +17,7 @@ given hidden scenes, and code that kept one could otherwise show it on the stude
 
 import pytest
 
-from autograder.pictures import contract, picture_record
+from autograder.feedback.pictures import contract, picture_record
 
 
 def _questions() -> tuple[str, ...]:

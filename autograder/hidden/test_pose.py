@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from autograder.hidden.cases import M1, SECONDS
-from autograder.hidden.feedback import read_returned
+from autograder.inputs.cases import M1, SECONDS
+from autograder.feedback.words import read_returned
 from judging import pose as jp
 from judging.conventions import findM2_call
 from judging.verdict import Malformed
@@ -26,7 +26,7 @@ from judging.verdict import Malformed
 
 @pytest.fixture(scope="session")
 def pose(hidden):
-    """The prepared inputs (``autograder.hidden.cases.pose.Pose``)."""
+    """The prepared inputs (``autograder.inputs.pose.Pose``)."""
     return hidden.prepared["pose"]
 
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from autograder.hidden.cases import SECONDS
-from autograder.hidden.feedback import read_returned
+from autograder.inputs.cases import SECONDS
+from autograder.feedback.words import read_returned
 from judging import triangulation as jt
 from judging.verdict import Malformed, Verdict, figure_text
 
@@ -32,7 +32,7 @@ class Triangulated:
 
 @pytest.fixture(scope="session")
 def triangulation(hidden):
-    """The prepared inputs (``autograder.hidden.cases.triangulation.Triangulation``)."""
+    """The prepared inputs (``autograder.inputs.triangulation.Triangulation``)."""
     return hidden.prepared["triangulation"]
 
 

@@ -6,7 +6,7 @@ Reads one JSON request per line on stdin, ``{"argv": [...], "log": PATH}``, runs
 ``pytest.main(argv)`` (a fresh pytest session each time, in this same process: numpy, the
 judgments and the hidden inputs are imported and loaded once, not once per submission) with its
 output written to ``log``, and answers on file descriptor FD with one JSON line ``{"exit": code}``.
-Ends at the end of stdin.  Started and fed by ``autograder.workers`` (one worker per concurrent
+Ends at the end of stdin.  Started and fed by ``autograder.grading.workers`` (one worker per concurrent
 grading), never by student code: the student's functions run in the sandbox's own processes.
 """
 
@@ -44,9 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     answers = os.fdopen(int(argv[0]), "w", buffering=1)
     # Warm up while the grader gets ready (the first request would pay for these imports).
     import pytest  # noqa: F401
-    import autograder.hidden.cases  # noqa: F401
+    import autograder.inputs.cases  # noqa: F401
     import autograder.hidden.plugin  # noqa: F401
-    import autograder.submission  # noqa: F401
+    import autograder.submission.read  # noqa: F401
 
     for line in sys.stdin:
         request = json.loads(line)

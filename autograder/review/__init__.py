@@ -8,7 +8,7 @@ who passed what, the named mistakes, score histograms, grades.csv and a Canvas i
 (``report``).  Both read only files; neither runs student code.
 
 This package imports only ``core``, the standard library, numpy and (for the histograms)
-matplotlib; the command line also reads the grader config (``autograder.config``) for the
+matplotlib; the command line also reads the grader config (``autograder.inputs.config``) for the
 library calls the report lists (``library_calls``: uses of OpenCV, SciPy's Rotation, skimage's
 ransac... that do what the homework asks, for the staff to look at).
 """

@@ -122,7 +122,7 @@ def similar_command(args) -> int:
 
 
 def report_command(args) -> int:
-    from autograder.config import load_config
+    from autograder.inputs.config import load_config
 
     from .report import write_report
 

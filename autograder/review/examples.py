@@ -2,7 +2,7 @@
 
 For each named mistake (question, name) the report takes the picture of that question from the
 first of its students (by name) whose graded folder has one: ``<graded>/<student>/figures/``,
-written beside the results by ``autograder.feedback_page``.  What is kept is the PNG and the
+written beside the results by ``autograder.feedback.page``.  What is kept is the PNG and the
 picture's alt text only, both drawn by the grader from numbers (``starter.checks.pictures.draw``):
 no student name, file name or code is in them, and the report shows no name beside them.
 """

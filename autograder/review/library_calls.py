@@ -10,7 +10,7 @@ cells of a notebook share their imports, as they share a kernel.  A name that is
 stands for itself, so ``cv2.recoverPose`` is found even when the import is in another notebook.
 
 The list is ``DEFAULT_LIBRARY_CALLS`` unless the instructor's grader config names its own
-(``library_calls``: a list of dotted names, see ``autograder.config``).  A listed name covers
+(``library_calls``: a list of dotted names, see ``autograder.inputs.config``).  A listed name covers
 what is under it: ``scipy.spatial.transform.Rotation`` covers ``Rotation.from_rotvec``.
 
 The kit's own code is looked at the same way, always (whatever the list): a use of the kit
@@ -36,39 +36,14 @@ from functools import lru_cache
 from pathlib import Path
 
 from core.paths import KIT_ROOT
-
 from core.untrusted import visible
+
+from autograder.inputs.config import library_names
 
 from .reader import blank_magics, code_units
 
-__all__ = ["DEFAULT_LIBRARY_CALLS", "GIVEN_KIT", "KIT_INTERNAL", "KIT_PACKAGES", "LibraryCall", "find_in_class",
-           "find_in_sources", "find_library_calls", "kit_internal", "library_names", "markdown_code"]
-
-# listed name -> what of the homework it does (shown beside each use)
-DEFAULT_LIBRARY_CALLS: dict[str, str] = {
-    "cv2.findFundamentalMat": "eightpoint / RANSAC",
-    "cv2.findEssentialMat": "essentialMatrix",
-    "cv2.triangulatePoints": "triangulate",
-    "cv2.recoverPose": "findM2",
-    "cv2.decomposeEssentialMat": "findM2",
-    "cv2.computeCorrespondEpilines": "epipolarCorrespondence",
-    "cv2.matchTemplate": "epipolarCorrespondence",
-    "cv2.StereoBM": "epipolarCorrespondence",
-    "cv2.StereoBM_create": "epipolarCorrespondence",
-    "cv2.StereoSGBM": "epipolarCorrespondence",
-    "cv2.StereoSGBM_create": "epipolarCorrespondence",
-    "cv2.BFMatcher": "epipolarCorrespondence",
-    "cv2.BFMatcher_create": "epipolarCorrespondence",
-    "cv2.FlannBasedMatcher": "epipolarCorrespondence",
-    "cv2.Rodrigues": "rodrigues / invRodrigues",
-    "cv2.sfm": "two-view reconstruction",
-    "scipy.spatial.transform.Rotation": "rodrigues / invRodrigues",
-    "skimage.measure.ransac": "RANSAC",
-    "skimage.transform.FundamentalMatrixTransform": "eightpoint",
-    "skimage.transform.EssentialMatrixTransform": "essentialMatrix",
-    "sklearn.linear_model.RANSACRegressor": "RANSAC",
-    "kornia.geometry.epipolar": "two-view geometry",
-}
+__all__ = ["GIVEN_KIT", "KIT_INTERNAL", "KIT_PACKAGES", "LibraryCall", "find_in_class",
+           "find_in_sources", "find_library_calls", "kit_internal", "markdown_code"]
 
 # The kit's top-level packages: a name under one of them is the kit's own.
 KIT_PACKAGES = ("core", "scenes", "starter", "judging", "handin", "solutions", "autograder", "kit")
@@ -90,7 +65,6 @@ GIVEN_KIT: dict[str, tuple[str, ...] | None] = {
 }
 KIT_INTERNAL = "a kit internal, not one of the helpers a student is given"
 
-_DOTTED = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)+$")
 _SHOWN = 160  # characters of a use's code kept in the report
 
 
@@ -114,21 +88,6 @@ class LibraryCall:
     def as_dict(self) -> dict:
         return {"name": self.name, "replaces": self.replaces, "kind": self.kind, "code": self.code,
                 "where": self.where, "function": self.function}
-
-
-def library_names(names: Iterable[str] | None = None) -> dict[str, str]:
-    """The names to look for -> what they do: ``DEFAULT_LIBRARY_CALLS`` when ``names`` is None,
-    else exactly ``names`` (described from the default list where it knows them).
-
-    Raises ValueError unless ``names`` is None or a list of dotted names (``cv2.findFundamentalMat``):
-    a bare name would match a student's own variables.
-    """
-    if names is None:
-        return dict(DEFAULT_LIBRARY_CALLS)
-    if isinstance(names, (str, bytes)) or not all(isinstance(n, str) and _DOTTED.match(n) for n in names):
-        raise ValueError("library_calls: expected a list of dotted names like \"cv2.findFundamentalMat\", "
-                         f"got {names!r}")
-    return {n: DEFAULT_LIBRARY_CALLS.get(n, "") for n in names}
 
 
 @lru_cache(maxsize=1)

@@ -72,7 +72,7 @@ _STORE: list = [None]  # fetch(parts, make) of the run's keep, when it has one
 
 def remember_in(fetch) -> None:
     """Keep polished results between grading runs as well: ``fetch(parts, make)`` returns the value
-    kept under ``parts`` or makes and keeps it (``autograder.hidden.keep.Keep.fetch``, a folder of
+    kept under ``parts`` or makes and keeps it (``autograder.inputs.keep.Keep.fetch``, a folder of
     the grader's own); None: in this process only."""
     _STORE[0] = fetch
 

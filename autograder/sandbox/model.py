@@ -51,7 +51,7 @@ class ResourceLimits:
     gives the code half a CPU needs more than 2).  cpu_share: the measured share of one CPU the
     code gets here (cpu clock only; in (0, 1]; 0.5 at 0.5 vCPU): a call's CPU seconds take
     1 / cpu_share wall-clock seconds, so the session's wall-clock budget grows by as much
-    (``autograder.budget.budget_of``).
+    (``autograder.grading.budget.budget_of``).
     """
 
     memory_bytes: int = 3 * 2**30

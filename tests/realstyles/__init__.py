@@ -60,7 +60,7 @@ y2023_per_part_multiview_views_1_2_loses_Q6               Q6               two c
 
 ``build(name, folder)`` writes the hand-in (a folder, or a zip for the per-part layout) and
 returns its path; ``load(name, folder)`` loads it in this process the way the sandbox child does
-(``autograder.submission.load_submission``'s units, the student's modules served by the child's
+(``autograder.submission.read.load_submission``'s units, the student's modules served by the child's
 importer) and returns a :class:`Loaded` (its functions and its modules, to be put back into
 ``sys.modules`` while it is called: a function may import ``helper`` when it runs).
 """
@@ -430,7 +430,7 @@ def load(name: str, folder: str | Path) -> Loaded:
     """Build program ``name`` in ``folder`` and load it here as the sandbox child would (only the
     kit's own tests do this; the grader runs submissions in its sandbox)."""
     from autograder.sandbox.child import load_units, StudentModules
-    from autograder.submission import load_submission
+    from autograder.submission.read import load_submission
 
     sub = load_submission(build(name, folder))
     units = [u.to_job() for u in sub.units()]
