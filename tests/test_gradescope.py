@@ -278,7 +278,7 @@ def test_shell_fallback_when_grading_is_too_slow(gradescope_dir, tmp_path):
 
 
 def test_broken_kit_still_gives_a_result(gradescope_dir):
-    (gradescope_dir / "source" / "autograder" / "grade.py").write_text("raise ImportError('broken on purpose')\n")
+    (gradescope_dir / "source" / "autograder" / "grading" / "grade.py").write_text("raise ImportError('broken on purpose')\n")
     put(gradescope_dir, *sorted(KEY.glob("*.ipynb")))
     data = run_autograder(gradescope_dir)
     assert_valid_results(data)
