@@ -1,6 +1,6 @@
 """Where Q5's full-marks goal sits (``judging.bundle.OPTIMUM_SLACK``), measured on the hidden problems.
 
-For each secret of the sweep (``tests/test_secret_sweep.py``'s names) the hidden bundle-adjustment
+For each secret of the sweep (``tests/end_to_end/test_secret_sweep.py``'s names) the hidden bundle-adjustment
 problems are built as the grader builds them, and four bundle adjustments written as students
 write them run on each; the table gives each one's final error as a multiple of the problem's
 optimum, beside the goal's multiple:

@@ -33,11 +33,12 @@ from contextlib import contextmanager
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "support"))  # the corpus
 
 from autograder.channels.gradescope import bundle as gradescope  # noqa: E402
-from tests import corpus  # noqa: E402
-from tests.corpus.hangs import build_all_hang  # noqa: E402
-from tests.gradescope_like import unpack  # noqa: E402
+import corpus  # noqa: E402
+from corpus.hangs import build_all_hang  # noqa: E402
+from gradescope_like import unpack  # noqa: E402
 
 _PERIOD = 100_000  # microseconds
 HANG_GOAL = 2.0     # the all-hang submission's time, at most this multiple of the answer key's

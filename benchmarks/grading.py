@@ -4,7 +4,7 @@
     python benchmarks/grading.py --class-of [N] [--faults K] [--jobs 2] [--quick]
 
 Throughput: --count submissions graded with --jobs 1 and with --jobs 2, in submissions per minute.
-The submissions are the answer key and the corpus of tests/corpus (mistakes, valid alternatives,
+The submissions are the answer key and the corpus of tests/support/corpus (mistakes, valid alternatives,
 broken notebooks; the hostile ones are left out, they measure the sandbox rather than a class),
 repeated until there are --count.  Settings: the grader's defaults (``GradingConfig()``, the dev
 secret) or, with --quick, the small ones of the kit's tests.  The hidden inputs are made once,
@@ -38,7 +38,7 @@ for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
 from core.paths import KIT_ROOT  # noqa: E402
-sys.path.insert(0, str(KIT_ROOT / "tests"))
+sys.path.insert(0, str(KIT_ROOT / "tests" / "support"))
 
 _HOSTILE = ("bomb", "loop", "exit", "process_left", "patched", "always_true", "reads_grader", "writes_results",
             "prints_fake")

@@ -1,12 +1,12 @@
 """Whether Q4.1 tells right from wrong on the hidden matching problems, secret by secret.
 
-For each secret of the sweep (``tests/test_secret_sweep.py``'s names, quick settings) the matching
+For each secret of the sweep (``tests/end_to_end/test_secret_sweep.py``'s names, quick settings) the matching
 problems are built as the grader builds them (``autograder.inputs.correspondence``), and
 matchers are graded on each scene by the hidden test's own call and judgment (``best_match``,
 ``judging.correspondence.matches``), in this process:
 
-- the correct ones: the real-styles corpus's (tests/realstyles: Gaussian-weighted local search,
-  whole-line SAD on 0-255 intensities), the sweep's matcher variants (tests/corpus/variants.py:
+- the correct ones: the real-styles corpus's (tests/support/realstyles: Gaussian-weighted local search,
+  whole-line SAD on 0-255 intensities), the sweep's matcher variants (tests/support/corpus/variants.py:
   SAD within 30 rows, its slicing and uint8 habits) and the answer key;
 - the wrong ones of the real-styles corpus: the line F^T x1 instead of F x1, and the right line
   searched only within rows y1 +- 10.
@@ -33,7 +33,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/core.py must not hide core/
 from core.paths import KIT_ROOT  # noqa: E402
 
-sys.path.insert(1, str(KIT_ROOT / "tests"))
+sys.path.insert(1, str(KIT_ROOT / "tests" / "support"))
 
 from autograder.inputs.config import quick_config  # noqa: E402
 from judging import correspondence as jc  # noqa: E402

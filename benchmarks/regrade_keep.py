@@ -24,7 +24,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from anywhere without installing
 from core.paths import KIT_ROOT  # noqa: E402
-sys.path.insert(0, str(KIT_ROOT / "tests"))
+sys.path.insert(0, str(KIT_ROOT / "tests" / "support"))
 
 SUBMISSION = "transposed_F_loses_Q2"
 

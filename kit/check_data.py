@@ -3,7 +3,7 @@
 Some public checks need what only working answers can compute, and answers cannot ship; so the
 grader side (solutions/) computes them for the public seed here and the results are committed
 next to the checks, which read them.  Tests prove each committed file equals a fresh
-computation (tests/test_matching_easy_points.py, tests/test_twisted_pair.py).
+computation (tests/judging_tests/test_matching_easy_points.py, tests/judging_tests/test_twisted_pair.py).
 
 - ``starter/checks/matching_goals.json``: Q4.1 and Q4.2's easy points of the public scene
   (the default data's scene, scenes.defaults.default_temple: a small public scene has too little

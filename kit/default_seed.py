@@ -7,7 +7,7 @@ the linear eight-point estimate are a lottery on the rounding of the stored poin
 official point out moves its reprojection error of 89 anywhere from 36 to 1073, and temple seeds
 0 to 74 give 94 to 11600.  So the seed is chosen, by the criterion below, as the first seed from 0
 upward whose scene meets it;
-scenes.defaults.TEMPLE_SEED records the result and tests/test_generated_scenes.py checks that
+scenes.defaults.TEMPLE_SEED records the result and tests/scenes_tests/test_generated_scenes.py checks that
 the default scene meets the criterion.  The command scans seeds and prints each one's figures,
 stopping at the first that meets it (``--all``: scans the whole range).
 
@@ -30,7 +30,7 @@ OFFICIAL = {"without refineF": 89.44, "with refineF": 352.0, "transposed F": 192
             "RANSAC inliers at 1 px": (105, 108), "after bundle adjustment": 8.0}
 
 # What a default seed must give, and why (each bound is the official figure's neighbourhood or a
-# limit of tests/test_generated_scenes.py):
+# limit of tests/scenes_tests/test_generated_scenes.py):
 CRITERION = {
     # within a factor of 2 of the official 89.44 (the handout: "about 89")
     "without refineF": (89.44 / 2, 89.44 * 2),
@@ -41,7 +41,7 @@ CRITERION = {
     "RANSAC inliers at 1 px": (100, 125),
     # bundle adjustment from the RANSAC inliers to about 10 (official 8.0; 10.885 from the clean pairs)
     "after bundle adjustment": (8.0, 12.0),
-    # the limits of tests/test_generated_scenes.py against the ground truth
+    # the limits of tests/scenes_tests/test_generated_scenes.py against the ground truth
     "eight-point median epipolar distance (px)": (0.0, 1.0),
     "eight-point 90th percentile epipolar distance (px)": (0.0, 2.5),
     "bundle adjustment median shape error (%)": (0.0, 3.0),
@@ -78,7 +78,7 @@ def figures(scene) -> dict:
     M2_r, _, w_r = findM2(F_r, p1, p2, s.K1, s.K2)
     M2_ba, w_ba, o1, o2 = bundleAdjustment(s.K1, M1, p1, s.K2, M2_r, p2, w_r)
     out["before bundle adjustment"], out["after bundle adjustment"] = float(o1), float(o2)
-    # As tests/test_generated_scenes.py: the kept true matches against their 3D points, at the true scale.
+    # As tests/scenes_tests/test_generated_scenes.py: the kept true matches against their 3D points, at the true scale.
     good = inl & s.inlier_mask
     X_true = s.X[s.noisy_source[good]]
     est = w_ba[good[inl]] * np.linalg.norm(s.M2[:, 3])

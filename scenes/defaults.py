@@ -1,7 +1,7 @@
 """The kit's default data: which seeds make data/, and how to write it.
 
 data/ is committed so that a fresh clone (and Colab) has data without running the generator;
-tests/test_default_data.py proves it is exactly what these functions make.  The ground truth of
+tests/scenes_tests/test_default_data.py proves it is exactly what these functions make.  The ground truth of
 the same scenes comes from :func:`default_temple` and :func:`default_car`, never from data/.
 """
 
@@ -18,12 +18,12 @@ __all__ = ["TEMPLE_SEED", "CAR_SEED", "default_temple", "default_car", "write_de
 # stored points' rounding (seeds 0-74 give reprojection errors of 94 to 11600 without refineF,
 # the official data 89.44; the two below 179, seeds 49 and 64, miss the eight-point and shape
 # limits against the ground truth), so TEMPLE_SEED is the first seed from 0 upward whose scene gives
-# figures like the official data's and passes tests/test_generated_scenes.py: the criterion is
+# figures like the official data's and passes tests/scenes_tests/test_generated_scenes.py: the criterion is
 # kit.default_seed.CRITERION (reprojection error without refineF within a factor 2 of 89.44, a
 # transposed F at least 10 times worse, RANSAC 100-125 of 140 at 1 px, bundle adjustment to 8-12,
 # the eight-point and bundle-adjustment limits against the ground truth).  Reproduce the choice
 # with `python -m kit.default_seed` (it prints each seed's figures and stops at the first that
-# qualifies); tests/test_generated_scenes.py checks that this seed meets the criterion.  Seed 75,
+# qualifies); tests/scenes_tests/test_generated_scenes.py checks that this seed meets the criterion.  Seed 75,
 # chosen after camera 2's toe (scenes.temple._poses) changed every scene; seed 0 before it.
 TEMPLE_SEED = 75
 CAR_SEED = 0

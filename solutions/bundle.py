@@ -4,7 +4,7 @@ The residual is written out here (``rodriguesResidual`` and its helper ``_residu
 key prints these bodies (kit/notebooks copies a reference function with its helpers).  It is the
 kit's one residual: what else needs it is grader-side and calls it (the hidden tests' optimum,
 solutions.expected's residuals for the judgments); nothing that ships computes it
-(tests/test_behaviour_leaks.py).
+(tests/repository/test_behaviour_leaks.py).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """What the public checks and figures compare a student's answer with, computed with working answers.
 
 The self-checks and the figures run in the student's kernel, where everything they import can be
-read and called, so no code that ships computes a graded answer (tests/test_behaviour_leaks.py
+read and called, so no code that ships computes a graded answer (tests/repository/test_behaviour_leaks.py
 calls every shipped callable to prove it).  What they need is computed here, on the grader's side:
 
 - for the public data, by ``python -m kit check-data``, which commits it beside the checks

@@ -20,6 +20,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 # validates with draft 4 and no format checker, and nothing in the kit uses either.
 sys.modules.setdefault("rfc3987_syntax", None)
 
+# The helpers the tests share (tests/support) import by their own names, from any test folder.
+sys.path.insert(0, str(Path(__file__).with_name("support")))
+
 import numpy as np  # noqa: E402
 import pytest
 
@@ -72,7 +75,7 @@ def config_file(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def public_python():
     """A venv of the public /usr/bin/python3 (the uid level refuses a Python under /root)."""
-    from test_fail_closed import public_folder, public_venv
+    from containers import public_folder, public_venv
 
     root = public_folder()
     try:

@@ -109,7 +109,7 @@ def judge_q2(p, F: dict, F_off: dict) -> dict:
 
     p : the prepared inputs (``cases.fundamental.Fundamental``); F, F_off : by case (``_all_cases``),
     the student's F (3, 3) or the Malformed saying why there is none, as returned and with refineF
-    switched off.  Pure: the tests below and tests/test_fundamental_goals.py grade with it.
+    switched off.  Pure: the tests below and tests/judging_tests/test_fundamental_goals.py grade with it.
     """
     # Rank 2 and uint16 count where F fits as returned and with refineF off (a constant answer
     # earns nothing, nor does a transposed F that refineF polished into fitting).

@@ -1,7 +1,7 @@
 """What a figure needs that only a working answer computes, read from data precomputed for the default data.
 
 The figures are drawn in the student's kernel too, where all the kit's code can be called, so they
-compute no graded answer (tests/test_behaviour_leaks.py): Q3.3's points under each candidate
+compute no graded answer (tests/repository/test_behaviour_leaks.py): Q3.3's points under each candidate
 camera, Q5's residuals of the handout at the start and Q6's triangulations under three threshold
 rules are computed on the grader's side (solutions.expected) for the default data by ``python -m
 kit check-data`` and committed as ``figure_data.json`` beside the self-checks.  Each entry keeps a
