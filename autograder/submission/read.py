@@ -86,7 +86,7 @@ __all__ = [
     "SubmissionError",
     "load_submission",
     "own_helper_note",
-    "parse_cells",
+    "parse_notebook_cells",
     "parse_notebook",
     "parse_python",
 ]
@@ -729,10 +729,10 @@ def _parse(data: bytes | str, *, stem: str, filename: str, python_file: bool) ->
         cells = code_cells(data, python_file=python_file)
     except NotebookUnreadable as exc:
         return ParsedNotebook(stem, filename, readable=False, error=str(exc), expected=_expected(stem))
-    return parse_cells(cells, stem=stem, filename=filename)
+    return parse_notebook_cells(cells, stem=stem, filename=filename)
 
 
-def parse_cells(cells: Iterable[Cell | str], *, stem: str, filename: str) -> ParsedNotebook:
+def parse_notebook_cells(cells: Iterable[Cell | str], *, stem: str, filename: str) -> ParsedNotebook:
     """Parse code cells (strings are numbered 1, 2, ...) into the units of one ParsedNotebook."""
     parsed, problems = parse_code_cells(cells)
     units: list[SourceUnit] = []

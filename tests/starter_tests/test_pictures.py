@@ -238,7 +238,7 @@ def test_q31_the_drawn_lines_are_the_implied_F(monkeypatch):
     """The artists' own data: the lines drawn for a transposed E miss their dots by what is measured,
     and the red sticks show it."""
     from starter.checks.pictures import q3_essential
-    from starter.checks.pictures.picture import fmt
+    from starter.checks.pictures.picture import measure_text
 
     figures = _captured(monkeypatch, q3_essential)
     p = picture("Q3.1", E_TRANSPOSED)
@@ -254,7 +254,7 @@ def test_q31_the_drawn_lines_are_the_implied_F(monkeypatch):
     assert _sticks(temple).max() == pytest.approx(q2.MISS_MAGNIFY * p.measures["largest_miss_px"], rel=1e-6)
     assert _sticks(pair).max() == pytest.approx(q2.MISS_MAGNIFY * p.measures["k_differ_largest_miss_px"], rel=1e-6)
     assert _sticks(temple).max() > 100 and _sticks(pair).max() > 100
-    assert figures[-1].axes[1].get_title() == fmt(p.measures["largest_miss_px"], "px")
+    assert figures[-1].axes[1].get_title() == measure_text(p.measures["largest_miss_px"], "px")
     _titles_stay_over_their_panels(figures[-1])
     picture("Q3.1", E_INVERSE_K)          # the longest numbers: millions of pixels
     _titles_stay_over_their_panels(figures[-1])
@@ -646,7 +646,7 @@ def test_q2_a_polished_transposed_F_shows_where_it_misses(monkeypatch):
     from every match to its line, MISS_MAGNIFY times as long, and a first zoom, framed, on the match
     farthest from its line, wide enough to show the line beside the dot."""
     from starter.checks.pictures import q2_eightpoint as q2
-    from starter.checks.pictures.picture import fmt
+    from starter.checks.pictures.picture import measure_text
 
     figures = _captured(monkeypatch, q2)
     p = picture("Q2", V.EIGHTPOINT_TRANSPOSED_REFINED)
@@ -660,7 +660,7 @@ def test_q2_a_polished_transposed_F_shows_where_it_misses(monkeypatch):
     assert _sticks(own).max() < 5 and _sticks(off).max() > 100                  # invisible / a fifth of the image
     assert _sticks(off).max() == pytest.approx(q2.MISS_MAGNIFY * m["refineF_off_largest_miss_px"], rel=1e-6)
     zoom = off.figure.axes[2 + q2.N_ZOOMED]
-    assert zoom.get_title() == fmt(m["refineF_off_largest_miss_px"], "px")
+    assert zoom.get_title() == measure_text(m["refineF_off_largest_miss_px"], "px")
     (line,) = [a for a in zoom.lines if a.get_gid() == "student_line"]
     (dot,) = [a for a in zoom.lines if a.get_gid() == "match"]
     (x, y), (x0, x1), (y0, y1) = (dot.get_xdata()[0], dot.get_ydata()[0]), line.get_xdata(), line.get_ydata()

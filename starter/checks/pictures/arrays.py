@@ -101,9 +101,9 @@ def count(value) -> np.ndarray:
 def said(name: str, value: float, size: float | None = None, unit: str = "") -> str:
     """"name = value" for the alt text, or what came instead of one number ("o1 is an array of 4
     numbers, not one number"; ``size`` from :func:`count`, None when not recorded)."""
-    from .picture import fmt
+    from .picture import measure_text
 
     if size is not None and int(size) != 1:
         return (f"{name} is not a number" if int(size) == 0
                 else f"{name} is an array of {int(size)} numbers, not one number")
-    return f"{name} = {fmt(value, unit)}"
+    return f"{name} = {measure_text(value, unit)}"

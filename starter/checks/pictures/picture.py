@@ -12,7 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-__all__ = ["Picture", "figure", "fmt", "to_picture"]
+__all__ = ["Picture", "figure", "measure_text", "to_picture"]
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ def to_picture(question: str, title: str, fig, alt: str, measures: Mapping[str, 
     return Picture(question, title, buf.getvalue(), alt, measures)
 
 
-def fmt(x: float, unit: str = "") -> str:
+def measure_text(x: float, unit: str = "") -> str:
     """A measured number for the alt text: 3 significant digits, "not finite" for NaN or inf."""
     x = float(x)
     if x != x or x in (float("inf"), float("-inf")):

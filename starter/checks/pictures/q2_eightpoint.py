@@ -26,7 +26,7 @@ import numpy as np
 
 from .arrays import call, matrix3, maybe, need
 from .drawing import clip_line, image, line_distances
-from .picture import Picture, figure, fmt, to_picture
+from .picture import Picture, figure, measure_text, to_picture
 from .public import NO_TRUTH, temple
 
 __all__ = ["FUNCTIONS", "MISS_MAGNIFY", "N_DRAWN", "N_ZOOMED", "ZOOM_MAX_PX", "ZOOM_PX", "crossings", "draw",
@@ -238,7 +238,7 @@ def lines_row(fig, grid, row, d, label, F, truth_F, h1, p2, zoom, every=None):
         ax.set_ylim(y + half, y - half)
         ax.set_xticks([])
         ax.set_yticks([])
-        ax.set_title(fmt(line_distances(zlines[k:k + 1], zp2[k:k + 1])[0], "px"), fontsize=10)
+        ax.set_title(measure_text(line_distances(zlines[k:k + 1], zp2[k:k + 1])[0], "px"), fontsize=10)
         if every is not None and k == 0:
             for side in ax.spines.values():
                 side.set_edgecolor(_FRAME)
@@ -293,10 +293,10 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         mean = float(np.mean(dist)) if np.all(np.isfinite(dist)) else float("inf")
         far = line_distances(every[0] @ F.T, p2)
         largest = float(np.max(far)) if np.all(np.isfinite(far)) else float("inf")
-        note = f"{_RUNS[key]}\ndots {fmt(mean, 'px')} from their lines on average, up to {fmt(largest, 'px')}"
+        note = f"{_RUNS[key]}\ndots {measure_text(mean, 'px')} from their lines on average, up to {measure_text(largest, 'px')}"
         measures[f"{_KEYS[key]}mean_distance_px"] = mean
         measures[f"{_KEYS[key]}largest_miss_px"] = largest
-        parts_far.append(f"{_RUNS[key]}: {fmt(largest, 'px')}")
+        parts_far.append(f"{_RUNS[key]}: {measure_text(largest, 'px')}")
         if key == "F":
             measures["max_distance_px"] = float(np.max(dist)) if np.all(np.isfinite(dist)) else float("inf")
             h, w = d.im2.shape[:2]
@@ -314,7 +314,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
             cross.set_title("where they cross", fontsize=10, color="#c62828")
         # 9 pt: at 10 the longest line ran past the panel into its first zoom
         big.set_title(note, fontsize=9)
-        parts.append(f"{_RUNS[key]}: {fmt(mean, 'px')}")
+        parts.append(f"{_RUNS[key]}: {measure_text(mean, 'px')}")
     if "F_uint16" in Fs and "F_uint16" not in drawn:
         measures["uint16_F_change"] = _change(Fs["F_uint16"], Fs["F"])
         measures["uint16_mean_distance_px"] = measures["mean_distance_px"]
@@ -329,7 +329,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
            + f"{MISS_MAGNIFY:g} times its distance; and zooms of at least {ZOOM_PX} px on the {N_ZOOMED} matches "
            + "farthest from their lines, the farthest framed in purple (its square on the image). "
            + "Mean distance of the dots to your lines: " + "; ".join(parts)
-           + (f"; to the true F's lines: {fmt(measures['true_F_mean_distance_px'], 'px')}"
+           + (f"; to the true F's lines: {measure_text(measures['true_F_mean_distance_px'], 'px')}"
               if truth_F is not None else "")
            + ". Largest distance of a match to its line: " + "; ".join(parts_far)
            + (f". The F of uint16 points differs from the F of float points by {measures['uint16_F_change']:.3g} "

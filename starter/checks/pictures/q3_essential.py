@@ -23,7 +23,7 @@ import numpy as np
 
 from .arrays import call, matrix3, maybe, need
 from .drawing import clip_line, line_distances
-from .picture import Picture, figure, fmt, to_picture
+from .picture import Picture, figure, measure_text, to_picture
 from .public import need_truth, temple
 from .q2_eightpoint import MISS_MAGNIFY, N_DRAWN, N_ZOOMED, ZOOM_PX, drawn_rows, lines_row
 
@@ -126,9 +126,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
             big.tick_params(labelbottom=False)   # its x labels ran into the next row's title
         # one line at 8 pt: a second would run into the zooms' row above, 9 pt past the panel into its
         # first zoom (how many lines cross the image is in the alt)
-        big.set_title(f"{label}: dots {fmt(mean, 'px')} from your lines, up to {fmt(largest, 'px')}", fontsize=8)
-        parts.append(f"{label}: {fmt(mean, 'px')}")
-        parts_far.append(f"{label}: {fmt(largest, 'px')}")
+        big.set_title(f"{label}: dots {measure_text(mean, 'px')} from your lines, up to {measure_text(largest, 'px')}", fontsize=8)
+        parts.append(f"{label}: {measure_text(mean, 'px')}")
+        parts_far.append(f"{label}: {measure_text(largest, 'px')}")
     alt = (f"Image 2 with {N_DRAWN} epipolar lines of the F your E implies (K2^-T E K1^-1; solid, orange) and of the "
            f"true F (dashed, blue) through the true matches (red dots); a red stick from each true match towards its "
            f"line, {MISS_MAGNIFY:g} times its distance; and zooms of at least {ZOOM_PX} px on the {N_ZOOMED} matches "

@@ -20,7 +20,7 @@ from core.geometry import depths, project
 
 from .arrays import call, count, maybe, need, number, read, said
 from .drawing import image
-from .picture import Picture, figure, fmt, to_picture
+from .picture import Picture, figure, measure_text, to_picture
 from .public import need_truth, temple
 
 __all__ = ["FUNCTIONS", "MAGNIFY", "draw", "run"]
@@ -78,7 +78,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     m["magnified"] = magnify
     for k, (im, p, q, dist) in enumerate(((d.im1, d.pts1, q1, d1), (d.im2, d.pts2, q2, d2))):
         ax = fig.add_subplot(grid[0, k])
-        image(ax, im, f"image {k + 1}: mean distance {fmt(np.mean(dist), 'px')}")
+        image(ax, im, f"image {k + 1}: mean distance {measure_text(np.mean(dist), 'px')}")
         _offsets(ax, p, q, magnify)
         ax.set_xlabel("dots: observed; crosses: your w reprojected"
                       + (f", offsets x{magnify:g}" if magnify != 1 else ""), fontsize=8)
@@ -93,8 +93,8 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         ax.text(x, v, f"{v:.3g}", ha="center", va="bottom", fontsize=7)
     alt = (f"Images 1 and 2 with the {n} observed matches and the reprojections of your w"
            + (f" (offsets magnified {magnify:g} times)" if magnify != 1 else "")
-           + f": mean distance {fmt(m['mean_reprojection_px_1'], 'px')} in image 1 and "
-           f"{fmt(m['mean_reprojection_px_2'], 'px')} in image 2; {front:.0%} of the points in front of both "
+           + f": mean distance {measure_text(m['mean_reprojection_px_1'], 'px')} in image 1 and "
+           f"{measure_text(m['mean_reprojection_px_2'], 'px')} in image 2; {front:.0%} of the points in front of both "
            f"cameras. Your {said('err', err, err_count, 'px^2')}; the sum of squares of the distances drawn is "
-           f"{fmt(total, 'px^2')}.")
+           f"{measure_text(total, 'px^2')}.")
     return to_picture("Q3.2", "triangulate: your points reprojected", fig, alt, m)

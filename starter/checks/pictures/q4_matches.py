@@ -21,7 +21,7 @@ import numpy as np
 
 from .arrays import call, need, read
 from .drawing import image
-from .picture import Picture, figure, fmt, to_picture
+from .picture import Picture, figure, measure_text, to_picture
 from .public import need_truth, temple
 
 __all__ = ["FUNCTIONS", "GOALS_FILE", "draw", "points", "run"]
@@ -102,5 +102,5 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
          "share_within_tol": float(ok.mean()), "tol_px": float(tol), "n_points": float(len(ok))}
     alt = (f"Image 2 with the true matches of {len(ok)} distinctive templeCoords points and your matches: "
            f"{int(ok.sum())} of {len(ok)} ({ok.mean():.0%}) within {tol:g} px of the true match; distance to the true "
-           f"match: median {fmt(m['median_distance_px'], 'px')}, mean {fmt(m['mean_distance_px'], 'px')}.")
+           f"match: median {measure_text(m['median_distance_px'], 'px')}, mean {measure_text(m['mean_distance_px'], 'px')}.")
     return to_picture("Q4.1", "epipolarCorrespondence: your matches and the true ones", fig, alt, m)

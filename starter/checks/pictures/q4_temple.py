@@ -22,7 +22,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from .arrays import PictureRunError, call, maybe, need, read
-from .picture import Picture, figure, fmt, to_picture
+from .picture import Picture, figure, measure_text, to_picture
 from .public import need_truth, temple
 
 __all__ = ["FUNCTIONS", "NEAR_SHARE", "draw", "run"]
@@ -152,9 +152,9 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
     upstream = (f" Most of your points are far from the temple: the function of another question behind them "
                 f"is {UPSTREAM[route]}." if UPSTREAM[route] and near.mean() < 0.5 else "")
     alt = (f"Points from {ROUTES[route]}. "
-           f"Your {len(X)} temple points, moved by the similarity that fits them best (scale {fmt(m['scale'])}), over "
+           f"Your {len(X)} temple points, moved by the similarity that fits them best (scale {measure_text(m['scale'])}), over "
            f"the true temple, seen from above and from the side: {int(near.sum())} of {len(X)} ({near.mean():.0%}) "
            f"within {NEAR_SHARE:.0%} of the temple's size of the true point; median distance "
-           f"{fmt(m['median_error'])} for a temple of size {fmt(size)}"
+           f"{measure_text(m['median_error'])} for a temple of size {measure_text(size)}"
            + ("" if finite.all() else f"; {int((~finite).sum())} points are not numbers") + "." + upstream)
     return to_picture("Q4.2", "compute3D_pts: your temple and the true one", fig, alt, m)

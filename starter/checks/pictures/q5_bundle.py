@@ -24,7 +24,7 @@ from core.geometry import project
 from . import precomputed
 from .arrays import call, count, maybe, need, number, read, said
 from .drawing import image, two_bars
-from .picture import Picture, figure, fmt, to_picture
+from .picture import Picture, figure, measure_text, to_picture
 from .public import need_truth, temple
 from .q5_problem import problem, recording, start_x
 
@@ -124,7 +124,7 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         ax.set_yscale("log")
     ax.set_title(f"{source}, call by call (px^2)" if len(history) else "no objective evaluation recorded",
                  fontsize=8)
-    ax.set_xlabel(f"calls; start {fmt(start)} (dashed), returned M2 and w {fmt(end)} (dotted),\n"
+    ax.set_xlabel(f"calls; start {measure_text(start)} (dashed), returned M2 and w {measure_text(end)} (dotted),\n"
                   "dots: each call, line: lowest so far", fontsize=7)
     _scale_bars(ax, np.linalg.norm(pr.M2_init[:, 3]), np.linalg.norm(M2[:, 3]))
     ax = axes[1]
@@ -154,11 +154,11 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
         ax.legend(fontsize=7)
     drop = "lower" if end < start * (1 - 1e-6) else "not lower"
     alt = (f"Bundle adjustment of {n} points from a start moved away from the truth: the total squared reprojection "
-           f"error goes from {fmt(start, 'px^2')} to {fmt(end, 'px^2')} with the M2 and w returned ({drop}); you "
+           f"error goes from {measure_text(start, 'px^2')} to {measure_text(end, 'px^2')} with the M2 and w returned ({drop}); you "
            f"reported {said('o1', o1, sizes[0])} and {said('o2', o2, sizes[1])}; |t| changed by a factor "
            f"{m['t_ratio']:.3g} (two bars beside the objective: |t| at the start and returned). "
-           + (f"The objective was evaluated {len(history)} times, from {fmt(m['history_first'])} to "
-              f"a lowest value of {fmt(m['history_min'])} ({source})." if len(history) else "No evaluation of the "
+           + (f"The objective was evaluated {len(history)} times, from {measure_text(m['history_first'])} to "
+              f"a lowest value of {measure_text(m['history_min'])} ({source})." if len(history) else "No evaluation of the "
               "objective was recorded (neither rodriguesResidual nor a scipy.optimize objective).")
            + (f" Your residuals at the start differ from the handout's layout by {m['residual_layout_gap']:.3g} of "
               "the largest residual." if res is not None else ""))

@@ -27,7 +27,7 @@ from core.geometry import project
 from . import precomputed
 from .arrays import call, count, maybe, need, number, read, said
 from .drawing import two_bars
-from .picture import Picture, figure, fmt, to_picture
+from .picture import Picture, figure, measure_text, to_picture
 from .public import car
 
 __all__ = ["FUNCTIONS", "RULES", "THRES", "draw", "run"]
@@ -182,10 +182,10 @@ def draw(outputs: Mapping[str, np.ndarray], root=None) -> Picture:
                        + (f"\n{missing}" if missing else ""), fontsize=8)
     alt = (f"The three views of time step {frame.time} with the 12 detections of each (Thres = {THRES:g}; "
            f"{int(m['detections_at_thres'])} detections have exactly that confidence) and your {int(finite.sum())} "
-           f"reconstructed keypoints reprojected: mean distance {fmt(m['mean_reprojection_px'], 'px')} to the "
+           f"reconstructed keypoints reprojected: mean distance {measure_text(m['mean_reprojection_px'], 'px')} to the "
            f"detections above Thres"
-           + (f"; mean 3D distance to the true keypoints {fmt(m['mean_error_3d'])}" if "mean_error_3d" in m else "")
+           + (f"; mean 3D distance to the true keypoints {measure_text(m['mean_error_3d'])}" if "mean_error_3d" in m else "")
            + (f". Of three rules, {rule}." if rules is not None else f"; {rule}.") + (f" {missing[0].upper()}{missing[1:]}." if missing else "")
            + f" Your {said('err', err, err_count)}; the sum of the squared distances of your keypoints reprojected "
-           f"to the detections above Thres is {fmt(squares, 'px^2')} (two bars in camera 3's corner).")
+           f"to the detections above Thres is {measure_text(squares, 'px^2')} (two bars in camera 3's corner).")
     return to_picture("Q6", "MultiviewReconstruction: your keypoints in the three views", fig, alt, m)

@@ -26,7 +26,7 @@ import pytest
 from autograder.sandbox import ResourceLimits, Sandbox, live_pids_of_uid
 from autograder.sandbox.script import MPL_CACHE
 from core import wire
-from autograder.submission.read import parse_cells
+from autograder.submission.read import parse_notebook_cells
 from core.paths import KIT_ROOT
 
 pytestmark = pytest.mark.slow  # the full tier's: see docs/testing.md
@@ -136,7 +136,7 @@ def test_every_sandbox_of_a_process_gives_its_children_the_font_list(box):
 
 
 def test_failing_import_loses_only_that_statement(box):
-    units = parse_cells(["import not_a_module_anywhere\ndef f():\n    return 1\n"],
+    units = parse_notebook_cells(["import not_a_module_anywhere\ndef f():\n    return 1\n"],
                         stem="q2_eightpoint", filename="q2_eightpoint.ipynb").units
     r = run(box, units, Call("f", "f"))
     assert r["f"].value == 1
@@ -145,14 +145,14 @@ def test_failing_import_loses_only_that_statement(box):
 
 
 def test_later_definition_is_the_one_called(box):
-    units = parse_cells(["def eightpoint(a, b, M):\n    return 'first'\n", "def eightpoint(a, b, M):\n    return 'second'\n"],
+    units = parse_notebook_cells(["def eightpoint(a, b, M):\n    return 'first'\n", "def eightpoint(a, b, M):\n    return 'second'\n"],
                         stem="q2_eightpoint", filename="q2.ipynb").units
     r = run(box, units, Call("e", "eightpoint", (1, 2, 3)))
     assert r["e"].value == "second"
 
 
 def test_exceptions_missing_functions_and_student_line_numbers(box):
-    units = parse_cells(["x = 1\n", "def f(a):\n    y = a + 1\n    raise ValueError('bad input ' + str(y))\n"],
+    units = parse_notebook_cells(["x = 1\n", "def f(a):\n    y = a + 1\n    raise ValueError('bad input ' + str(y))\n"],
                         stem="q2_eightpoint", filename="q2.ipynb").units
     r = run(box, units, Call("f", "f", (1,)), Call("g", "not_defined"))
     assert r["f"].status == "exception"

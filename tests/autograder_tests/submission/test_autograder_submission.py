@@ -19,7 +19,7 @@ from autograder.submission.read import (
     SizeLimits,
     SubmissionError,
     load_submission,
-    parse_cells,
+    parse_notebook_cells,
     parse_notebook,
     parse_python,
 )
@@ -70,7 +70,7 @@ def test_syntax_error_loses_only_its_cell():
     cells = ["def essentialMatrix(F, K1, K2):\n    return K2.T @ F @ K1\n",
              "def triangulate(C1, pts1, C2, pts2:\n    pass\n",
              "def findM2(F, pts1, pts2, intrinsics):\n    return None\n"]
-    nb = parse_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
+    nb = parse_notebook_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
     assert [p.cell for p in nb.syntax_errors] == [2]
     assert nb.syntax_errors[0].line == 1
     assert set(nb.definitions) == {"essentialMatrix", "findM2"}
@@ -79,7 +79,7 @@ def test_syntax_error_loses_only_its_cell():
 
 
 def test_missing_function_is_reported():
-    nb = parse_cells(["def essentialMatrix(F, K1, K2):\n    return F\n"],
+    nb = parse_notebook_cells(["def essentialMatrix(F, K1, K2):\n    return F\n"],
                      stem="q3_metric_reconstruction", filename="q3_metric_reconstruction.ipynb")
     assert set(nb.missing) == set(functions_of_notebook("q3_metric_reconstruction")) - {"essentialMatrix"}
     assert any("findM2 is not defined" in d for d in map(str, nb.notes()))
@@ -100,7 +100,7 @@ def test_only_definitions_imports_and_simple_constants_are_kept():
         "@np.vectorize\ndef sq(x):\n    return x * x\n"
         "class Camera:\n    pass\n"
     )
-    nb = parse_cells([cell], stem="q2_eightpoint", filename="q2.ipynb")
+    nb = parse_notebook_cells([cell], stem="q2_eightpoint", filename="q2.ipynb")
     kept = set().union(*(u.defines for u in nb.units))
     assert kept == {"np", "opt", "M", "EPS", "skew", "cv2", "sq", "Camera"}
     # Every unit is valid Python on its own, and the decorator travels with its function.
@@ -115,7 +115,7 @@ def test_magics_and_shell_lines_do_not_hide_definitions():
              "%%bash\necho not python\n",
              "%%time\ndef triangulate(C1, pts1, C2, pts2):\n    return 1\n",
              "np.linalg.svd?\ndef findM2(F, pts1, pts2, intrinsics):\n    !echo inside\n    return 2\n"]
-    nb = parse_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
+    nb = parse_notebook_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
     assert nb.syntax_errors == ()
     assert {"np", "triangulate", "findM2"} <= set(nb.definitions)
     tri = next(u for u in nb.units if "triangulate" in u.defines)
@@ -133,7 +133,7 @@ def test_python_file_split_in_percent_cells():
 
 
 def test_future_import_is_marked_for_the_child():
-    nb = parse_cells(["from __future__ import annotations\ndef f(x: Undefined) -> None:\n    pass\n"],
+    nb = parse_notebook_cells(["from __future__ import annotations\ndef f(x: Undefined) -> None:\n    pass\n"],
                      stem="q2_eightpoint", filename="q2.ipynb")
     assert nb.units[0].future == ("annotations",)
 
@@ -254,7 +254,7 @@ def test_units_leave_out_the_notebooks_self_checks_runs_and_links():
              "def findM2(F, pts1, pts2, intrinsics):\n    return 1\n",
              "M1 = np.eye(3)\nreport = check_findM2(findM2)\nF = try_run(eightpoint, M1, M1, 640)\n"
              "best = findM2(M1, M1, M1, M1)\nLIMIT = np.sqrt(2)\n"]
-    nb = parse_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
+    nb = parse_notebook_cells(cells, stem="q3_metric_reconstruction", filename="q3.ipynb")
     kept = set().union(*(u.defines for u in nb.units))
     assert kept == {"from_notebook", "try_run", "check_findM2", "np", "findM2", "M1", "LIMIT"}
     # A function fetched with from_notebook is not "found" in this notebook: the grader loads q2 itself.
