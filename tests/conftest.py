@@ -186,16 +186,20 @@ def pytest_unconfigure(config):
 
 
 # The order the files run in under two processes: costliest first, from the durations a whole
-# run recorded (tests/durations.json: each file's summed setup, call and teardown seconds), so that
-# a long file never starts last and leaves the other process idle at the end.  Files the record
-# does not know follow in their usual order.  A whole run with HW4_RECORD_DURATIONS set (a path)
-# writes the record there; copy it over tests/durations.json when the suite's costs have moved.
+# run recorded (tests/durations.json), so that a long file never starts last and leaves the other
+# process idle at the end.  The record holds each file's summed setup, call and teardown seconds
+# ("test_x.py") and each test's ("test_x.py::test_y[z]"): a file's cost is that of the tests this
+# run selected, so the fast tier is ordered by its own share of each file, not by the whole run's.
+# Files the record does not know follow in their usual order.  A whole run with
+# HW4_RECORD_DURATIONS set (a path) writes the record there; copy it over tests/durations.json
+# when the suite's costs have moved.
 DURATIONS_FILE = Path(__file__).with_name("durations.json")
 _RECORDED: dict[str, float] = {}
 
 
 def recorded_durations(path: Path = DURATIONS_FILE) -> dict[str, float]:
-    """File name -> seconds, from a record (empty when there is none or it cannot be read)."""
+    """Name -> seconds (a file's name, or a file's name and a test's), from a record (empty when there
+    is none or it cannot be read)."""
     import json
 
     try:
@@ -211,16 +215,45 @@ def costliest_first(names, durations: dict[str, float]) -> list[str]:
     return known + [n for n in names if n not in durations]
 
 
+def selection_costs(selected: dict[str, list[str]], durations: dict[str, float]) -> dict[str, float]:
+    """File name -> the recorded cost of its ``selected`` tests (file name -> test keys
+    ``test_x.py::test_y``): the tests' own seconds, and for tests the record does not name, the
+    part of the file's total that no named test accounts for.  Files the record does not know are
+    left out."""
+    named: dict[str, float] = {}
+    for key, seconds in durations.items():
+        if "::" in key:
+            file = key.split("::", 1)[0]
+            named[file] = named.get(file, 0.0) + seconds
+    costs = {}
+    for file, tests in selected.items():
+        known = [durations[t] for t in tests if t in durations]
+        rest = len(known) < len(tests) and file in durations
+        if known or rest:
+            costs[file] = sum(known) + (max(0.0, durations[file] - named.get(file, 0.0)) if rest else 0.0)
+    return costs
+
+
+def _test_key(nodeid: str) -> str:
+    """``tests/a/test_x.py::test_y[z]`` -> ``test_x.py::test_y[z]``: a file is known by its name alone."""
+    path, _, rest = nodeid.partition("::")
+    return path.rsplit("/", 1)[-1] + ("::" + rest if rest else "")
+
+
 def _costliest_first(items) -> None:
-    names = list(dict.fromkeys(item.path.name for item in items))
-    rank = {name: k for k, name in enumerate(costliest_first(names, recorded_durations()))}
+    selected: dict[str, list[str]] = {}
+    for item in items:
+        selected.setdefault(item.path.name, []).append(_test_key(item.nodeid))
+    costs = selection_costs(selected, recorded_durations())
+    rank = {name: k for k, name in enumerate(costliest_first(list(selected), costs))}
     items.sort(key=lambda item: rank[item.path.name])  # stable: a file's tests keep their order
 
 
 def pytest_runtest_logreport(report):
     if os.environ.get("HW4_RECORD_DURATIONS"):
-        name = report.nodeid.split("::")[0].rsplit("/", 1)[-1]
-        _RECORDED[name] = _RECORDED.get(name, 0.0) + float(report.duration)
+        key = _test_key(report.nodeid)
+        for name in (key.split("::", 1)[0], key):
+            _RECORDED[name] = _RECORDED.get(name, 0.0) + float(report.duration)
 
 
 def pytest_sessionfinish(session):
@@ -228,5 +261,5 @@ def pytest_sessionfinish(session):
 
     target = os.environ.get("HW4_RECORD_DURATIONS")
     if target and _RECORDED and not hasattr(session.config, "workerinput"):  # the controller has every report
-        ordered = dict(sorted(((k, round(v, 1)) for k, v in _RECORDED.items()), key=lambda kv: -kv[1]))
+        ordered = dict(sorted(((k, round(v, 2)) for k, v in _RECORDED.items()), key=lambda kv: -kv[1]))
         Path(target).write_text(json.dumps(ordered, indent=1) + "\n")

@@ -403,6 +403,8 @@ def test_the_scan_covers_every_graded_function():
     assert all(answers[f] for f in graded), {f: len(a) for f, a in answers.items()}
 
 
+# The scan calls every shipped callable in a process of its own (about 6 s): the full tier's.
+@pytest.mark.slow
 def test_no_shipped_callable_answers_a_graded_function_leak(tmp_path):
     got = run_scan(tmp_path)
     # the scan reached every shipped package, and called much of it
@@ -412,6 +414,7 @@ def test_no_shipped_callable_answers_a_graded_function_leak(tmp_path):
     assert found == [], "\n".join(f"{f['callable']} answers {f['function']} (called {f['called']})" for f in found)
 
 
+@pytest.mark.slow
 def test_the_scan_finds_answers_in_a_planted_package(tmp_path):
     """A linear triangulation of any number of views and the handout's residuals, as they once
     shipped in starter/checks/pictures and judging/bundle: both found, by what they compute."""

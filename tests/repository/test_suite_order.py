@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from conftest import DURATIONS_FILE, costliest_first, recorded_durations
+from conftest import DURATIONS_FILE, costliest_first, recorded_durations, selection_costs
 
 
 def test_recorded_files_come_costliest_first_and_the_rest_keep_their_order():
@@ -28,7 +28,7 @@ def test_the_committed_record_names_files_of_this_suite():
     recorded = recorded_durations()
     assert recorded, f"{DURATIONS_FILE.name} is missing or unreadable"
     here = {p.name for p in DURATIONS_FILE.parent.rglob("test_*.py")}
-    missing = [name for name in recorded if name not in here]
+    missing = sorted({name.split("::", 1)[0] for name in recorded} - here)
     assert not missing, f"{DURATIONS_FILE.name} names files the suite no longer has: {missing}"
 
 
@@ -38,3 +38,17 @@ def test_no_two_test_files_share_a_name():
     names = [p.name for p in DURATIONS_FILE.parent.rglob("test_*.py") if "__pycache__" not in p.parts]
     assert len(names) > 50
     assert sorted(n for n in set(names) if names.count(n) > 1) == []
+
+
+def test_a_selection_costs_what_its_own_tests_recorded():
+    record = {"test_a.py": 100.0, "test_a.py::fast": 2.0, "test_a.py::slow": 90.0, "test_b.py": 10.0,
+              "test_c.py::t": 1.0}
+    # the fast tier of a: its own test, not the file's whole run
+    assert selection_costs({"test_a.py": ["test_a.py::fast"]}, record) == {"test_a.py": 2.0}
+    # a test the record does not name costs what no named test of its file accounts for (100 - 92)
+    assert selection_costs({"test_a.py": ["test_a.py::fast", "test_a.py::new"]}, record) == {"test_a.py": 10.0}
+    # files known by their total only, by their tests only, or not at all
+    assert selection_costs({"test_b.py": ["test_b.py::x"], "test_c.py": ["test_c.py::t"], "test_d.py": ["test_d.py::u"]},
+                           record) == {"test_b.py": 10.0, "test_c.py": 1.0}
+    assert costliest_first(["test_d.py", "test_a.py", "test_b.py"], {"test_a.py": 2.0, "test_b.py": 10.0}) == \
+        ["test_b.py", "test_a.py", "test_d.py"]
