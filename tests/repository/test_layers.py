@@ -350,3 +350,13 @@ def test_tests_import_private_names_only_from_the_module_they_test():
         if not (path.name.startswith("test_") and is_test_of(path, module)):
             bad.append(line)
     assert not bad, "tests importing another module's private names:\n" + "\n".join(bad)
+
+
+def test_the_install_lists_exactly_the_kits_packages():
+    """pyproject's package list is what `pip install` ships: a folder left out is missing from a
+    non-editable install, and a name whose folder is gone fails the install itself."""
+    import tomllib
+
+    listed = set(tomllib.loads((KIT_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    folders = {module_name(p) for p in shipped_files() if p.name == "__init__.py"}
+    assert listed == folders, {"listed, no folder": sorted(listed - folders), "folder, not listed": sorted(folders - listed)}
