@@ -10,7 +10,7 @@ F is defined up to scale and sign, and several answers are right (refineF or not
   a design matrix built for F transposed does not once refineF stops polishing it);
   The hidden scenes' cameras share K and turn little, so their F is nearly skew-symmetric and
   their matches cannot tell F from F transposed; each is therefore also given with camera 2's
-  intrinsics changed (``cases.fundamental._OTHER_K2``: zoomed out, principal point moved), where
+  intrinsics changed (``autograder.inputs.fundamental._OTHER_K2``: zoomed out, principal point moved), where
   the transposed true F lies at least 1.5 goals off;
 - rank 2, and the data files' uint16 points give the F of the same points as float: counted only
   where F fits the scene, as returned and with refineF off (a zero or constant matrix earns
@@ -107,7 +107,7 @@ def _how_called(cases, *, off: bool = False) -> list[str]:
 def judge_q2(p, F: dict, F_off: dict) -> dict:
     """The grade of each Q2 test: ``{"fits" | "rank" | "exact" | "uint16": (fraction, lines, mistakes)}``.
 
-    p : the prepared inputs (``cases.fundamental.Fundamental``); F, F_off : by case (``_all_cases``),
+    p : the prepared inputs (``autograder.inputs.fundamental.Fundamental``); F, F_off : by case (``_all_cases``),
     the student's F (3, 3) or the Malformed saying why there is none, as returned and with refineF
     switched off.  Pure: the tests below and tests/judging_tests/test_fundamental_goals.py grade with it.
     """

@@ -1,6 +1,6 @@
 """The hidden inputs of every check, cut from the hidden scenes, with the reference's results on them.
 
-One module per concept of ``judging/`` (``cases.fundamental`` ... ``cases.multiview``), each with
+One module per concept of ``judging/`` (``inputs.fundamental`` ... ``inputs.multiview``), each with
 its ``prepare_<concept>(scenes)``; ``prepare_all`` runs them all (``autograder.inputs.build``
 makes them; the tests of ``autograder/hidden/test_<concept>.py`` read them through the ``hidden``
 fixture as ``hidden.prepared["<concept>"]``).  ``base`` holds what they share: M1 and the time
@@ -59,7 +59,7 @@ def with_fixed(drawn: dict, batch: dict, config) -> dict:
     made from the default and official data put back in its place, under ``config``."""
     fixed = {name: [c for c in _cases_of(name, batch[name]) if c.label in FIXED_LABELS] for name in drawn}
     f, t, p = drawn["fundamental"], drawn["triangulation"], drawn["pose"]
-    # (Q2's noise-free and uint16 cases are made from the draw's own hidden scenes: cases.fundamental.)
+    # (Q2's noise-free and uint16 cases are made from the draw's own hidden scenes: inputs.fundamental.)
     return {
         **drawn,
         "fundamental": dataclasses.replace(f, cases=(*f.cases, *fixed["fundamental"])),

@@ -111,7 +111,7 @@ def test_q33s_right_camera_is_the_one_the_reference_chooses_even_from_a_poor_F(m
     # true pose. From a poor F, the points in front of both cameras can pick another candidate:
     # every correct findM2 would lose. Here the reference's F is the unrefined one (poor on the
     # quick scenes); each case must still expect what the reference's findM2 chooses.
-    from autograder.inputs.cases import pose as cases_pose
+    from autograder.inputs import pose as cases_pose
     from autograder.inputs.scenes import make_scenes
     from core.geometry import fundamental_from_pose
     from solutions import eightpoint, findM2
