@@ -247,24 +247,21 @@ def _packages() -> set[str]:
     return {module_name(p) for p in shipped_files() if p.name == "__init__.py"}
 
 
-def test_no_circle_between_autograders_folders(edges):
-    """autograder/'s folders can be read one at a time: no two import each other, straight or round.
+def test_autograders_folders_import_only_downward_and_never_in_a_circle(edges):
+    """autograder/'s folders can be read one at a time: each imports only the rows below it, and no
+    two import each other, straight or round.
 
     A parent's own modules count as the parent's: ``autograder/__main__.py`` importing a channel
     while a channel imported ``autograder/config.py`` was such a circle.
     """
-    folders = folder_graph(_module_graph(edges), _packages())
-    circles = [c for c in circles_of(folders) if c.startswith("autograder")]
-    assert not circles, "folders that import each other:\n" + "\n".join(circles)
-
-
-def test_autograders_folders_import_only_downward(edges):
     rank = dict((name, layer) for layer, name in AUTOGRADER_FOLDERS)
     folders = folder_graph(_module_graph(edges), _packages())
     assert {f for f in _packages() if f.startswith("autograder")} == set(rank), "a folder without a row"
     bad = [f"{a} ({rank[a]}) imports {b} ({rank[b]})" for a, targets in sorted(folders.items()) if a in rank
            for b in sorted(targets) if b in rank and rank[b] >= rank[a]]
     assert not bad, "autograder folders that import sideways or up:\n" + "\n".join(bad)
+    circles = [c for c in circles_of(folders) if c.startswith("autograder")]
+    assert not circles, "folders that import each other:\n" + "\n".join(circles)
 
 
 def test_a_circle_between_folders_is_seen():
@@ -358,5 +355,5 @@ def test_the_install_lists_exactly_the_kits_packages():
     import tomllib
 
     listed = set(tomllib.loads((KIT_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    folders = {module_name(p) for p in shipped_files() if p.name == "__init__.py"}
+    folders = _packages()
     assert listed == folders, {"listed, no folder": sorted(listed - folders), "folder, not listed": sorted(folders - listed)}

@@ -16,7 +16,8 @@ from autograder.channels.gradescope import bundle as gradescope
 from autograder.inputs.config import load_config, quick_config
 from core.paths import KIT_ROOT
 
-__all__ = ["unpack"]
+__all__ = ["KEY", "SECRET", "SEED_LABELS", "assert_valid_results", "build_test_bundle", "put", "run_autograder",
+           "unpack"]
 
 
 def unpack(bundle: Path, root: Path) -> Path:

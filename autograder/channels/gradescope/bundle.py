@@ -129,8 +129,6 @@ __all__ = [
     "calibration",
     "clock_settings",
     "config_file",
-    "data_files",
-    "grader_files",
     "grade_gradescope",
     "limits_scale",
     "render_asset",
